@@ -1,0 +1,133 @@
+#include "core/xml.hpp"
+
+#include <tinyxml2.h>
+
+#include "core/strings.hpp"
+
+namespace kneesim::xml {
+
+std::string Node::name() const { return el_ ? el_->Name() : ""; }
+
+std::optional<std::string> Node::attr(const char* key) const {
+  const char* v = el_ ? el_->Attribute(key) : nullptr;
+  if (!v) return std::nullopt;
+  return std::string(v);
+}
+
+std::string Node::nameAttr() const { return attr("name").value_or(""); }
+
+Node Node::child(const char* tag) const {
+  return Node(doc_, el_ ? el_->FirstChildElement(tag) : nullptr);
+}
+
+Node Node::requireChild(const char* tag) const {
+  Node c = child(tag);
+  if (!c) fail(std::string("missing element <") + tag + ">");
+  return c;
+}
+
+std::vector<Node> Node::children() const {
+  std::vector<Node> out;
+  if (!el_) return out;
+  for (auto* c = el_->FirstChildElement(); c; c = c->NextSiblingElement()) out.emplace_back(doc_, c);
+  return out;
+}
+
+std::vector<Node> Node::children(const char* tag) const {
+  std::vector<Node> out;
+  if (!el_) return out;
+  for (auto* c = el_->FirstChildElement(tag); c; c = c->NextSiblingElement(tag)) out.emplace_back(doc_, c);
+  return out;
+}
+
+std::string Node::text() const {
+  if (!el_) return "";
+  const char* t = el_->GetText();
+  return t ? std::string(trim(t)) : std::string();
+}
+
+double Node::toDouble() const { return parseDouble(text(), where()); }
+long Node::toInt() const { return parseInt(text(), where()); }
+bool Node::toBool() const { return parseBool(text(), where()); }
+
+std::vector<double> Node::toDoubles() const {
+  std::vector<double> out;
+  const std::string t = text();
+  for (auto w : splitWhitespace(t)) out.push_back(parseDouble(w, where()));
+  return out;
+}
+
+Eigen::Vector3d Node::toVec3() const {
+  const auto v = toDoubles();
+  if (v.size() != 3)
+    fail("expected 3 numbers, got " + std::to_string(v.size()) + " ('" + text() + "')");
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+std::vector<std::string> Node::toWords() const {
+  std::vector<std::string> out;
+  const std::string t = text();
+  for (auto w : splitWhitespace(t)) out.emplace_back(w);
+  return out;
+}
+
+double Node::childDouble(const char* tag, double fallback) const {
+  Node c = child(tag);
+  return (c && !c.text().empty()) ? c.toDouble() : fallback;
+}
+bool Node::childBool(const char* tag, bool fallback) const {
+  Node c = child(tag);
+  return (c && !c.text().empty()) ? c.toBool() : fallback;
+}
+std::string Node::childText(const char* tag, const std::string& fallback) const {
+  Node c = child(tag);
+  return c ? c.text() : fallback;
+}
+Eigen::Vector3d Node::childVec3(const char* tag, const Eigen::Vector3d& fallback) const {
+  Node c = child(tag);
+  return (c && !c.text().empty()) ? c.toVec3() : fallback;
+}
+
+int Node::line() const { return el_ ? el_->GetLineNum() : 0; }
+
+std::string Node::path() const {
+  std::string p;
+  for (const tinyxml2::XMLNode* n = el_; n; n = n->Parent()) {
+    const tinyxml2::XMLElement* e = n->ToElement();
+    if (!e) break;
+    std::string part = e->Name();
+    if (const char* nm = e->Attribute("name"); nm && *nm) part += std::string("[") + nm + "]";
+    p = p.empty() ? part : part + "/" + p;
+  }
+  return p;
+}
+
+SourceLocation Node::where() const { return {doc_ ? doc_->getPath() : "", line(), path()}; }
+
+void Node::fail(const std::string& message) const { throw InputError(where(), message); }
+
+Document::~Document() = default;
+
+std::unique_ptr<Document> Document::load(const std::string& path) {
+  return parse(readFileText(path), path);
+}
+
+std::unique_ptr<Document> Document::parse(const std::string& text, const std::string& label) {
+  std::unique_ptr<Document> d(new Document());
+  d->path_ = label;
+  d->doc_ = std::make_unique<tinyxml2::XMLDocument>();
+  if (d->doc_->Parse(text.c_str(), text.size()) != tinyxml2::XML_SUCCESS) {
+    std::string msg = d->doc_->ErrorStr() ? d->doc_->ErrorStr() : "parse error";
+    // tinyxml2 prefixes "Error=XML_ERROR_... ErrorID=N (0xN) Line number=N: "; keep what follows.
+    if (auto pos = msg.find(": "); pos != std::string::npos && msg.find("Line number") != std::string::npos)
+      msg = msg.substr(pos + 2);
+    throw InputError({label, d->doc_->ErrorLineNum(), ""},
+                     std::string("malformed XML (") + d->doc_->ErrorName() + "): " + msg);
+  }
+  if (!d->doc_->RootElement()) throw InputError({label, 0, ""}, "XML file has no root element");
+  return d;
+}
+
+Node Document::root() const { return Node(this, doc_->RootElement()); }
+
+}  // namespace kneesim::xml

@@ -1,0 +1,115 @@
+/* kneesim plugin ABI (C, like MuJoCo's mjplugin.h).
+ *
+ * A plugin is a shared library that exports one function,
+ *
+ *     int kneesim_plugin_register(const kneesim_registrar* r);
+ *
+ * which the engine calls right after loading the library. The plugin calls r->add_* once per
+ * thing it provides (contact laws, distance providers, gap effects). Tables passed to add_*
+ * must stay valid while the library is loaded (use static storage).
+ *
+ * Units are SI throughout: areas in m^2, distances in m, forces in N, angles in rad, time in s.
+ * Functions return 0 on success; on failure they write a one-line message into err (at most
+ * err_len bytes including the terminating NUL) and return non-zero.
+ */
+#ifndef KNEESIM_PLUGIN_H
+#define KNEESIM_PLUGIN_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define KNEESIM_PLUGIN_ABI_VERSION 1
+
+#if defined(_WIN32)
+#define KNEESIM_PLUGIN_EXPORT __declspec(dllexport)
+#else
+#define KNEESIM_PLUGIN_EXPORT __attribute__((visibility("default")))
+#endif
+
+/* A model parameter with bounds. */
+typedef struct kneesim_param {
+  const char* name;          /* identifier, e.g. "E" */
+  const char* unit;          /* e.g. "Pa", "m", "1" */
+  double lower;              /* bound used by the identification (may be -1e20) */
+  double upper;              /* bound used by the identification (may be +1e20) */
+  double default_value;      /* starting value; for effects, the value that gives the baseline back */
+  double typical_scale;      /* magnitude used to scale sensitivities (> 0) */
+  int fixed_by_default;      /* 1: held at default unless the setup frees it (e.g. a geometric radius) */
+  const char* description;
+} kneesim_param;
+
+/* Per-frame time series handed to a law: channel c has values[c][0..n_frames-1].
+ * Channel names used by the engine (a law lists the ones it needs in required_inputs):
+ *   "time", "S", "S_medial", "S_lateral" (contact area), "dmin", "dmin_medial", "dmin_lateral"
+ *   (signed minimum distance), "dS_dt" (and "dS_medial_dt", ...), "R" (cylinder radius), coordinates
+ *   by model name (e.g. "knee_flexion", rad), and measured channels "GRF:<name>", "EMG:<name>". */
+typedef struct kneesim_inputs {
+  int n_frames;
+  int n_channels;
+  const char* const* names;
+  const double* const* values;
+} kneesim_inputs;
+
+/* A contact law: force over a whole trial from its inputs and parameters. */
+typedef struct kneesim_contact_law {
+  int struct_size;            /* sizeof(kneesim_contact_law), for forward compatibility */
+  const char* name;           /* unique, e.g. "hertz" */
+  const char* description;
+  int n_params;
+  const kneesim_param* params;
+  int n_inputs;
+  const char* const* inputs;  /* channel names the law reads */
+  /* force[i] for each frame; if dforce is not NULL also dforce[p * n_frames + i] = dF_i/dparam_p. */
+  int (*calc_force)(const double* params, const kneesim_inputs* in, double* force, double* dforce,
+                    char* err, int err_len);
+  /* Optional quantities derived from the parameters that the data can determine even when the
+   * parameters themselves are not (e.g. K = E / (1 - nu^2) for Hertz). May be 0 / NULL. */
+  int n_derived;
+  const char* const* derived_names;
+  const char* const* derived_units;
+  void (*calc_derived)(const double* params, double* out);
+} kneesim_contact_law;
+
+/* A triangle mesh handed to a distance provider (vertices in metres, 3 per vertex). */
+typedef struct kneesim_mesh_view {
+  int n_vertices;
+  const double* vertices;
+  int n_triangles;
+  const int* triangles;
+} kneesim_mesh_view;
+
+/* Signed distance from query points to a closed target surface. */
+typedef struct kneesim_distance_provider {
+  int struct_size;
+  const char* name;           /* e.g. "fcl" */
+  const char* description;
+  /* Prepares queries of points (given in frame Q) against the target mesh (frame T). */
+  void* (*create)(const kneesim_mesh_view* target, int n_points, const double* points_Q, char* err, int err_len);
+  /* X_TQ: pose of Q in T as a row-major 3x4 matrix [R | p]. Writes for every point its signed
+   * distance to the target surface (negative inside the target). Points farther than max_distance
+   * may get any value > max_distance. closest_T (3 per point, may be NULL) receives the closest
+   * target point for points within max_distance. */
+  int (*compute)(void* ctx, const double* X_TQ, double max_distance, double* distance, double* closest_T,
+                 char* err, int err_len);
+  void (*destroy)(void* ctx);
+} kneesim_distance_provider;
+
+/* Handed to kneesim_plugin_register. Returns 0 if accepted, non-zero if the name is taken or the
+ * table is invalid. */
+typedef struct kneesim_registrar {
+  int abi_version;
+  void* host;
+  int (*add_contact_law)(void* host, const kneesim_contact_law* law);
+  int (*add_distance_provider)(void* host, const kneesim_distance_provider* provider);
+  /* Gap-diagnosis effects (issue 5) are registered through add_contact_law with a name of the
+   * form "effect:<name>"; see plugins/README.md. */
+} kneesim_registrar;
+
+typedef int (*kneesim_plugin_register_fn)(const kneesim_registrar* r);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* KNEESIM_PLUGIN_H */

@@ -1,0 +1,48 @@
+#include "core/strings.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace kneesim {
+namespace {
+
+TEST(Strings, SplitLinesAcceptsLfCrlfAndLoneCr) {
+  const auto lines = splitLines("a\nb\r\nc\rd");
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[0], "a");
+  EXPECT_EQ(lines[1], "b");
+  EXPECT_EQ(lines[2], "c");
+  EXPECT_EQ(lines[3], "d");
+}
+
+TEST(Strings, SplitOnKeepsEmptyFields) {
+  const auto f = splitOn("1,,3,", ',');
+  ASSERT_EQ(f.size(), 4u);
+  EXPECT_EQ(f[1], "");
+  EXPECT_EQ(f[3], "");
+}
+
+TEST(Strings, ParseDoubleRejectsTrailingGarbage) {
+  double v = 0;
+  EXPECT_TRUE(tryParseDouble(" 1.5e3 ", v));
+  EXPECT_DOUBLE_EQ(v, 1500.0);
+  EXPECT_FALSE(tryParseDouble("1.5mm", v));
+  EXPECT_TRUE(tryParseDouble("NaN", v));
+  EXPECT_TRUE(std::isnan(v));
+  try {
+    parseDouble("abc", {"f.xml", 3, "Model/mass"});
+    FAIL() << "no throw";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "f.xml:3: Model/mass: expected a number, got 'abc'");
+  }
+}
+
+TEST(Strings, ParseBool) {
+  EXPECT_TRUE(parseBool(" TRUE ", {}));
+  EXPECT_FALSE(parseBool("false", {}));
+  EXPECT_THROW(parseBool("yes", {}), InputError);
+}
+
+}  // namespace
+}  // namespace kneesim

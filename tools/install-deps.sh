@@ -1,0 +1,18 @@
+#!/bin/sh
+# Installs kneesim's build and run dependencies from Debian 12 packages. Idempotent; run as root.
+set -eu
+PKGS="build-essential cmake pkg-config git
+      libsimbody-dev libeigen3-dev libfcl-dev coinor-libipopt-dev liburdfdom-dev
+      libtinyxml2-dev libcli11-dev nlohmann-json3-dev
+      libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox"
+missing=""
+for p in $PKGS; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  # shellcheck disable=SC2086
+  apt-get install -y -qq --no-install-recommends $missing
+fi
+echo "kneesim dependencies are installed."
