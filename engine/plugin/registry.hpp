@@ -1,0 +1,65 @@
+#pragma once
+// Loading plugins and looking up what they registered.
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "plugin/kneesim_plugin.h"
+
+namespace kneesim::plugin {
+
+/// The plugins loaded by one run (no global state: each Session owns one registry).
+/// Libraries stay loaded until the registry is destroyed.
+class Registry {
+ public:
+  Registry();
+  ~Registry();
+  Registry(const Registry&) = delete;
+  Registry& operator=(const Registry&) = delete;
+
+  /// Loads the plugin @p name_or_path: an existing path, or a bare name such as "hertz" searched
+  /// as lib<name>.so / libkneesim_<name>.so in the search path. Loading the same library twice is
+  /// a no-op. Throws InputError ("no plugin 'x' in: dir1, dir2") naming @p context (the setup
+  /// file and element) when it cannot be found or does not export kneesim_plugin_register.
+  void loadPlugin(const std::string& name_or_path, const SourceLocation& context = {});
+
+  /// Folders searched by loadPlugin, in order: those added here, then $KNEESIM_PLUGIN_PATH
+  /// (colon-separated), then the build and install folders compiled into the caller.
+  void addSearchDirectory(const std::string& dir);
+  const std::vector<std::string>& getSearchDirectories() const { return search_dirs_; }
+
+  /// Registers a table directly (plugins linked into the executable, tests).
+  void adoptContactLaw(const kneesim_contact_law* law, const std::string& origin = "built-in");
+  void adoptDistanceProvider(const kneesim_distance_provider* provider, const std::string& origin = "built-in");
+
+  /// The law or provider registered under @p name, or nullptr (cheap).
+  const kneesim_contact_law* findContactLaw(const std::string& name) const;
+  const kneesim_distance_provider* findDistanceProvider(const std::string& name) const;
+  /// Like find*, but throws InputError at @p context listing the available names.
+  const kneesim_contact_law& getContactLaw(const std::string& name, const SourceLocation& context = {}) const;
+  const kneesim_distance_provider& getDistanceProvider(const std::string& name,
+                                                       const SourceLocation& context = {}) const;
+
+  std::vector<std::string> getContactLawNames() const;
+  std::vector<std::string> getDistanceProviderNames() const;
+  /// The library a law or provider came from ("built-in" for adopted tables).
+  std::string findOrigin(const std::string& name) const;
+
+ private:
+  struct Library;
+  std::vector<std::string> search_dirs_;
+  std::vector<std::unique_ptr<Library>> libraries_;
+  std::map<std::string, const kneesim_contact_law*> laws_;
+  std::map<std::string, const kneesim_distance_provider*> providers_;
+  std::map<std::string, std::string> origins_;
+  std::string loading_;  // library being registered, for origins_
+  std::string reject_;   // why the last add_* was refused
+
+  static int addLawThunk(void* host, const kneesim_contact_law* law);
+  static int addProviderThunk(void* host, const kneesim_distance_provider* provider);
+};
+
+}  // namespace kneesim::plugin
