@@ -466,7 +466,8 @@ C3dFile readC3d(const std::string& path) {
   std::vector<double> mult(static_cast<size_t>(nch));
   for (int i = 0; i < nch; ++i) mult[size_t(i)] = ch_scale[size_t(i)] * gen_scale;
   const Eigen::Index nsamples = Eigen::Index(frames) * spf;
-  a.data.resize(nsamples, nch);
+  // Decoded row by row in file order; a column-major fill would stride through the whole matrix.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows(nsamples, nch);
   a.time.resize(size_t(nsamples));
   const double t0 = double(first - 1) / rate;
   for (Eigen::Index s = 0; s < nsamples; ++s) a.time[size_t(s)] = t0 + double(s) / a.rate;
@@ -483,10 +484,11 @@ C3dFile readC3d(const std::string& path) {
           raw = unsigned_analog ? double(c.u16(q)) : double(c.i16(q));
           q += 2;
         }
-        a.data(row, i) = (raw - ch_offset[size_t(i)]) * mult[size_t(i)];
+        rows(row, i) = (raw - ch_offset[size_t(i)]) * mult[size_t(i)];
       }
     }
   }
+  a.data = rows;
 
   // Force platforms.
   const int nplates = int(firstValue(out, "FORCE_PLATFORM", "USED", 0));
