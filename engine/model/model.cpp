@@ -1,6 +1,7 @@
 #include "model/model.hpp"
 
 #include <deque>
+#include <filesystem>
 
 #include "core/error.hpp"
 
@@ -135,6 +136,27 @@ Pose poseFromXYZ(const Vec3& r, const Vec3& p) {
                    .toRotationMatrix();
   X.translation() = p;
   return X;
+}
+
+std::string findMeshFile(const std::string& file, const std::string& model_folder) {
+  namespace fs = std::filesystem;
+  std::string f = file;
+  if (f.rfind("file://", 0) == 0) f = f.substr(7);
+  if (f.empty()) return "";
+  std::vector<fs::path> candidates;
+  const fs::path p(f);
+  if (p.is_absolute()) {
+    candidates.push_back(p);
+  } else {
+    const fs::path folder = model_folder.empty() ? fs::path(".") : fs::path(model_folder);
+    candidates.push_back(folder / p);
+    candidates.push_back(folder / "Geometry" / p);
+  }
+  for (const fs::path& c : candidates) {
+    std::error_code ec;
+    if (fs::is_regular_file(c, ec)) return fs::absolute(c, ec).lexically_normal().string();
+  }
+  return "";
 }
 
 }  // namespace kneesim::model

@@ -115,6 +115,8 @@ class Model {
   std::vector<CoordinateCoupler> couplers;
   std::vector<Marker> markers;
   std::vector<IgnoredComponent> ignored;
+  /// Problems a reader tolerated (a mesh file not found, unusual length units, ...), one line each.
+  std::vector<std::string> warnings;
 
   /// Builds name indexes, checks the tree (each non-ground body is the child of exactly one
   /// joint, no cycles), fills unused transform axes, and orders joints parent-before-child.
@@ -138,5 +140,10 @@ using ModelPtr = std::shared_ptr<const Model>;
 
 /// Pose from OpenSim's body-fixed X-Y-Z Euler angles and a translation.
 Pose poseFromXYZ(const Vec3& xyz_body_fixed, const Vec3& p);
+
+/// Finds the mesh file @p file named by a model in folder @p model_folder: @p file itself when
+/// absolute, else model_folder/file, then model_folder/Geometry/file. A "file://" prefix is
+/// dropped. Returns the absolute normalised path of the first regular file found, or "".
+std::string findMeshFile(const std::string& file, const std::string& model_folder);
 
 }  // namespace kneesim::model

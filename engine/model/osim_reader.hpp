@@ -1,0 +1,30 @@
+#pragma once
+// Reader for OpenSim model files (.osim), document versions 20302 to 4xxxx.
+//
+// Both layouts are read: OpenSim 2.x/3.x (joints nested in their child body, parent_body,
+// location_in_parent, orientation_in_parent, location, orientation) and OpenSim 4.x (JointSet,
+// PhysicalOffsetFrames, sockets). Lengths are taken as metres and angles as radians, which is
+// what OpenSim itself does with every model file; a <length_units> other than metres is kept
+// as a warning on the model rather than converted.
+//
+// Components kneesim does not simulate (muscles and other forces, wrap objects, contact
+// geometry, controllers, probes, non-coupler constraints, disabled couplers) are listed in
+// Model::ignored. Unknown joint or function types are errors.
+
+#include <string>
+
+#include "model/model.hpp"
+
+namespace kneesim::model {
+
+/// Reads the OpenSim model at @p path and returns it finalised. Mesh files are looked for next
+/// to the model, then in its Geometry/ folder; a missing mesh leaves MeshRef::resolved_path
+/// empty and adds a warning. Throws InputError ("file:line: element/path: ...") on a malformed
+/// or inconsistent model.
+ModelPtr readOsim(const std::string& path);
+
+/// Parses the text of an OpenSim model. @p label names it in error messages, and its folder is
+/// where mesh files are looked for. Throws InputError like readOsim().
+ModelPtr parseOsim(const std::string& text, const std::string& label);
+
+}  // namespace kneesim::model
