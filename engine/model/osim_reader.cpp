@@ -511,6 +511,7 @@ class OsimReader {
     if (name.empty()) j.fail("expected a name attribute on <" + type + ">, got none");
     if (joint_names_.count(name)) j.fail("duplicate joint name '" + name + "'");
     joint_names_.insert(name);
+    joint_nodes_.push_back(j);
 
     Joint jt;
     jt.name = name;
@@ -711,8 +712,7 @@ class OsimReader {
     for (size_t j = 0; j < m_->joints.size(); ++j) {
       const int c = m_->joints[j].child_body;
       if (parent_joint[c] >= 0)
-        throw InputError({label_, 0, "joint[" + m_->joints[j].name + "]"},
-                         "body '" + m_->bodies[c].name + "' is already the child of joint '" +
+        joint_nodes_[j].fail("body '" + m_->bodies[c].name + "' is already the child of joint '" +
                              m_->joints[parent_joint[c]].name + "'; closed loops are not supported");
       parent_joint[c] = int(j);
     }
@@ -822,6 +822,7 @@ class OsimReader {
   std::unordered_map<std::string, int> body_index_;
   std::unordered_map<std::string, int> coord_index_;
   std::set<std::string> joint_names_;
+  std::vector<Node> joint_nodes_;  // parallel to Model::joints until finalize()
   std::vector<std::pair<Node, int>> pending_joints_;
   std::map<std::string, OffsetFrame> frames_;
 };

@@ -440,6 +440,13 @@ TEST(OsimReader, OtherStructuralErrors) {
   std::string text = orphan;
   text.replace(text.find("</objects></BodySet>"), 0, "<Body name=\"lost\"><mass>1</mass></Body>\n");
   EXPECT_NE(errorOf(text).find("expected a joint connecting body 'lost' to the tree"), std::string::npos) << errorOf(text);
+  // Two joints with the same child body (a closed loop).
+  std::string loop = kPin;
+  loop += "<WeldJoint name=\"w\"><socket_parent_frame>/ground</socket_parent_frame>"
+          "<socket_child_frame>/bodyset/b</socket_child_frame></WeldJoint>\n";
+  const std::string e_loop = errorOf(model4(loop));
+  EXPECT_NE(e_loop.find("bad.osim:9: "), std::string::npos) << e_loop;
+  EXPECT_NE(e_loop.find("body 'b' is already the child of joint 'j'"), std::string::npos) << e_loop;
   // A coupler naming an unknown coordinate.
   const std::string coupler = model4(kPin,
                                      "<ConstraintSet><objects><CoordinateCouplerConstraint name=\"c\">"

@@ -132,6 +132,38 @@ TEST(Urdf, BadInputIsAOneLineErrorWithFileAndLine) {
   EXPECT_THROW(readUrdf("/nonexistent/robot.urdf"), InputError);
 }
 
+TEST(Urdf, WorldRootFloatingJointAndMimic) {
+  const std::string text =
+      "<robot name=\"r\">\n"
+      "<link name=\"world\"/><link name=\"pelvis\"><inertial><mass value=\"10\"/>"
+      "<inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial></link>\n"
+      "<link name=\"a\"/><link name=\"b\"/>\n"
+      "<joint name=\"free\" type=\"floating\"><parent link=\"world\"/><child link=\"pelvis\"/>"
+      "<origin xyz=\"0 0 1\"/></joint>\n"
+      "<joint name=\"ja\" type=\"continuous\"><parent link=\"pelvis\"/><child link=\"a\"/><axis xyz=\"0 0 -1\"/></joint>\n"
+      "<joint name=\"jb\" type=\"prismatic\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 0 1\"/>"
+      "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/>"
+      "<mimic joint=\"ja\" multiplier=\"0.5\" offset=\"0.1\"/></joint>\n"
+      "</robot>\n";
+  const ModelPtr m = parseUrdf(text, "world.urdf");
+  ASSERT_EQ(m->bodies.size(), 4u);  // world is ground
+  EXPECT_EQ(m->joints.size(), 3u);
+  EXPECT_EQ(m->joints[0].type, JointType::Free);
+  EXPECT_EQ(m->joints[0].parent_body, 0);
+  ASSERT_EQ(m->coordinates.size(), 8u);
+  EXPECT_EQ(m->coordinates[0].name, "free_rx");
+  EXPECT_EQ(m->coordinates[5].name, "free_tz");
+  EXPECT_EQ(m->coordinates[5].motion_type, MotionType::Translational);
+  ASSERT_EQ(m->couplers.size(), 1u);
+  EXPECT_EQ(m->coordinates[m->couplers[0].dependent].name, "jb");
+  EXPECT_EQ(m->coordinates[m->couplers[0].independents[0]].name, "ja");
+  EXPECT_DOUBLE_EQ(m->couplers[0].function->calcValue(2.0), 1.1);
+  // A continuous joint about -z turns b's origin the other way: at ja = pi/2, the point (1,0,0)
+  // of a lands at (0,-1,1) (z up through the free joint's origin).
+  const auto q = test::coordinateValues(*m, {{"ja", M_PI / 2}});
+  EXPECT_LT((test::bodyPoses(*m, q)[m->findBody("a")] * Vec3(1, 0, 0) - Vec3(0, -1, 1)).norm(), 1e-12);
+}
+
 /// Compares the ground pose of every body of @p a with the same-named body of @p b.
 void expectSameKinematics(const Model& a, const std::vector<double>& qa, const Model& b, const std::vector<double>& qb,
                           double tol, const std::string& what) {
