@@ -173,6 +173,9 @@ class Reader {
         for (int d = 0; d < nd; ++d) {
           prm.dims.push_back(b_[p + 4 + size_t(d)]);
           count *= size_t(prm.dims.back());
+          if (count > b_.size())  // also stops the product from overflowing
+            fail("parameters/" + name, "expected parameter data within the file, got dimensions of more than " +
+                                           std::to_string(b_.size()) + " elements");
         }
         const size_t elem = size_t(std::abs(prm.type));
         const size_t data = p + 4 + size_t(nd);
@@ -345,6 +348,8 @@ C3dFile readC3d(const std::string& path) {
     if (n > frames) frames = n;  // header last frame saturated at 65535
   }
   if (frames < 0) frames = 0;
+  if (frames > 100000000L)
+    fail("POINT:FRAMES", "expected at most 100000000 frames, got " + std::to_string(frames) + " (corrupt header?)");
   if (first < 1 && frames > 0) first = 1;
   out.first_frame = int(first);
   out.last_frame = int(first + frames - 1);

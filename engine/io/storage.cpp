@@ -1,5 +1,6 @@
 #include "io/storage.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -115,7 +116,7 @@ Storage readStorage(const std::string& path) {
   const size_t nc = s.labels.size();
 
   std::vector<double> values;
-  values.reserve(size_t(n_rows > 0 ? n_rows : 64) * nc);
+  values.reserve(std::min(size_t(n_rows > 0 ? n_rows : 64) * nc, text.size() / 2 + 1));
   std::vector<std::string_view> cells;
   size_t rows = 0;
   while (lines.next(line)) {

@@ -1,5 +1,6 @@
 #include "io/trc.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -106,9 +107,12 @@ MarkerTable readTrc(const std::string& path) {
 
   const size_t expected_cells = 2 + 3 * size_t(num_markers);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  table.time.reserve(size_t(num_frames));
-  table.frame_numbers.reserve(size_t(num_frames));
-  table.positions.reserve(size_t(num_frames) * size_t(num_markers));
+  // Reserve from the header but never beyond what the text can hold (a corrupt NumFrames must
+  // not allocate gigabytes): each row takes at least 2 bytes, each coordinate at least 1.
+  const size_t max_rows = std::min(size_t(num_frames), text.size() / 2 + 1);
+  table.time.reserve(max_rows);
+  table.frame_numbers.reserve(max_rows);
+  table.positions.reserve(std::min(max_rows * size_t(num_markers), text.size() / 3 + 1));
   std::vector<std::string_view> cells;
   while (lines.next(line)) {
     if (detail::isBlank(line)) continue;

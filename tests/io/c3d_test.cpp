@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <random>
 
 #include "io_test_util.hpp"
 #include "support/test_data.hpp"
@@ -406,6 +407,49 @@ TEST(C3d, PlateWrenchOfKnownLoadOnType2And4Plates) {
     EXPECT_TRUE(std::isnan(w.free_moment[3].z()));
     EXPECT_FALSE(std::isnan(calcPlateWrench(c, 0, 1.0).cop[3].x()));
   }
+}
+
+TEST(C3d, CorruptedFilesOnlyEverThrowInputError) {
+  // Random byte damage to header, parameters and data of small files of every processor and
+  // format: the reader must either read them or throw InputError (never crash, never another
+  // exception type such as bad_alloc).
+  const std::string dir = test::scratchDir("c3d_fuzz");
+  std::vector<std::string> originals;
+  for (const char* proc : {"Intel", "DEC", "MIPS"})
+    for (bool is_float : {true, false}) {
+      writeC3d(dir + "/src.c3d", makePlateFile(is_float ? 2 : 4), {proc, is_float, 0.1, "mm"});
+      originals.push_back(readBytes(dir + "/src.c3d"));
+    }
+  std::mt19937 rng(20240611);
+  int read_ok = 0, rejected = 0;
+  for (int iter = 0; iter < 3000; ++iter) {
+    std::string b = originals[size_t(iter) % originals.size()];
+    const int hits = 1 + int(rng() % 6);
+    for (int h = 0; h < hits; ++h) {
+      // Half the damage goes to the first 1.5 blocks (header and parameters), where it matters most.
+      const size_t at = (rng() % 2) ? rng() % 768 : rng() % b.size();
+      b[at] = char(rng() % 256);
+    }
+    if (rng() % 5 == 0) b.resize(rng() % b.size());
+    writeBytes(dir + "/f.c3d", b);
+    try {
+      const C3dFile c = readC3d(dir + "/f.c3d");
+      ++read_ok;
+      for (int p = 0; p < int(c.plates.size()); ++p) {
+        try {
+          calcPlateWrench(c, p);
+        } catch (const InputError&) {
+        }
+      }
+    } catch (const InputError&) {
+      ++rejected;
+    } catch (const std::exception& e) {
+      FAIL() << "iteration " << iter << ": expected InputError, got " << e.what();
+    }
+  }
+  // Both outcomes must occur, or the damage is not exercising the reader.
+  EXPECT_GT(read_ok, 100);
+  EXPECT_GT(rejected, 100);
 }
 
 TEST(C3d, BadInputsAreOneLineErrors) {

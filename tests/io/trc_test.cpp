@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "io/marker_table.hpp"
 #include "io_test_util.hpp"
@@ -176,6 +177,30 @@ TEST(Trc, WriteThenReadRoundTripsPositionsGapsAndFrames) {
   }
   EXPECT_THROW(writeTrc(dir + "/bad.trc", in, "furlongs"), InputError);
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad.trc"));
+}
+
+TEST(Trc, DamagedTextOnlyEverThrowsInputError) {
+  const std::string dir = test::scratchDir("trc_fuzz");
+  const std::string alphabet = "0123456789.-+eEnaNIf\t\t\n\r ,#X";
+  std::mt19937 rng(7);
+  int ok = 0, rejected = 0;
+  for (int iter = 0; iter < 2000; ++iter) {
+    std::string s = kGapTrc;
+    for (int h = 0, n = 1 + int(rng() % 4); h < n; ++h) s[rng() % s.size()] = alphabet[rng() % alphabet.size()];
+    if (rng() % 4 == 0) s.resize(rng() % s.size());
+    writeBytes(dir + "/f.trc", s);
+    try {
+      const MarkerTable t = readTrc(dir + "/f.trc");
+      EXPECT_EQ(t.positions.size(), size_t(t.getNumFrames()) * size_t(t.getNumMarkers()));
+      ++ok;
+    } catch (const InputError&) {
+      ++rejected;
+    } catch (const std::exception& e) {
+      FAIL() << "iteration " << iter << ": expected InputError, got " << e.what();
+    }
+  }
+  EXPECT_GT(ok, 50);
+  EXPECT_GT(rejected, 50);
 }
 
 TEST(MarkerTable, ReadMarkerFileDispatchesOnExtensionAndFindsMarkers) {
