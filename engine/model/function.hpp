@@ -87,7 +87,9 @@ class LinearFunction final : public Function {
   double calcValue(const double* x) const override { return slope_ * x[0] + intercept_; }
   double calcDerivative(const double*, const int*, int order) const override { return order == 1 ? slope_ : 0.0; }
   std::string getTypeName() const override { return "LinearFunction"; }
+  /// The slope.
   double getSlope() const { return slope_; }
+  /// The value at x = 0.
   double getIntercept() const { return intercept_; }
 
  private:
@@ -120,11 +122,15 @@ class SimmSpline final : public Function {
   double calcValue(const double* x) const override;
   double calcDerivative(const double* x, const int* components, int order) const override;
   std::string getTypeName() const override { return type_name_; }
+  /// The knots' abscissae, strictly increasing.
   const std::vector<double>& getX() const { return x_; }
+  /// The knots' values.
   const std::vector<double>& getY() const { return y_; }
-  /// Polynomial coefficients of interval k: y_k + b dx + c dx^2 + d dx^3.
+  /// Coefficients b, c, d of interval k: f = y_k + b_k dx + c_k dx^2 + d_k dx^3 with dx = x - x_k.
   const std::vector<double>& getB() const { return b_; }
+  /// See getB().
   const std::vector<double>& getC() const { return c_; }
+  /// See getB().
   const std::vector<double>& getD() const { return d_; }
 
  private:
@@ -141,7 +147,9 @@ class PiecewiseLinearFunction final : public Function {
   double calcValue(const double* x) const override;
   double calcDerivative(const double* x, const int* components, int order) const override;
   std::string getTypeName() const override { return "PiecewiseLinearFunction"; }
+  /// The knots' abscissae, strictly increasing.
   const std::vector<double>& getX() const { return x_; }
+  /// The knots' values.
   const std::vector<double>& getY() const { return y_; }
 
  private:
@@ -160,7 +168,9 @@ class MultiplierFunction final : public Function {
     return scale_ * g_->calcDerivative(x, components, order);
   }
   std::string getTypeName() const override { return "MultiplierFunction"; }
+  /// The scaled function g.
   const FunctionPtr& getFunction() const { return g_; }
+  /// The factor applied to g.
   double getScale() const { return scale_; }
 
  private:

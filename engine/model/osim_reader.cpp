@@ -159,6 +159,8 @@ class OsimReader {
   std::shared_ptr<Model> read() {
     Node root = doc_.root();
     Node model_el;
+    // OpenSim takes a document without a version for its oldest layout (XMLDocument: 10500).
+    m_->format_version = 10500;
     if (root.name() == "OpenSimDocument") {
       if (auto v = root.attr("Version")) {
         double d;
