@@ -719,7 +719,7 @@ void writeC3d(const std::string& path, const C3dFile& c3d, const C3dWriteOptions
   params.push_back(makeInts("ANALOG", "USED", {double(nch)}, {}));
   params.push_back(makeFloats("ANALOG", "RATE", {nch > 0 ? (a.rate > 0 ? a.rate : rate * spf) : rate}, {}));
   params.push_back(makeFloats("ANALOG", "GEN_SCALE", {1.0}, {}));
-  if (!o.float_format) params.push_back(makeString("ANALOG", "FORMAT", "SIGNED"));
+  if (!o.float_format) params.push_back(makeString("ANALOG", "FORMAT", "SIGNED  "));  // room for "UNSIGNED"
   addValueList(params, "ANALOG", "SCALE", ch_scale, 4);
   addValueList(params, "ANALOG", "OFFSET", std::vector<double>(size_t(nch), 0.0), 2);
   std::vector<std::string> alabels = a.labels, aunits = a.units, adesc = a.descriptions;

@@ -213,6 +213,22 @@ C3dFile makeSynthetic(int frames, int markers, int channels, int spf) {
   return c;
 }
 
+// Offset of the first data byte of parameter @p name of group number @p gid in a file written
+// by writeC3d (groups are numbered POINT 1, ANALOG 2, FORCE_PLATFORM 3, TRIAL 4 there).
+size_t findParameterData(const std::string& b, int gid, const std::string& name) {
+  const std::string key = std::string(1, char(name.size())) + char(gid) + name;
+  const size_t at = b.find(key, 512);
+  if (at == std::string::npos) return 0;
+  const size_t p = at + key.size() + 2;  // skip the offset word
+  const int nd = uint8_t(b[p + 1]);
+  return p + 2 + size_t(nd);
+}
+
+void putLe16(std::string& b, size_t at, int v) {
+  b[at] = char(v & 0xFF);
+  b[at + 1] = char((v >> 8) & 0xFF);
+}
+
 void expectSameMarkers(const MarkerTable& a, const MarkerTable& b, double tol) {
   ASSERT_EQ(a.getNumFrames(), b.getNumFrames());
   ASSERT_EQ(a.getNumMarkers(), b.getNumMarkers());
@@ -334,6 +350,60 @@ TEST(C3d, LongLabelListsFramesBeyond32767AndLockedParametersSurvive) {
   EXPECT_EQ(x.last_frame, 70004);
   EXPECT_EQ(x.markers.frame_numbers.back(), 70004);
   EXPECT_NEAR(x.markers.getPosition(69999, 0).x(), 0.001 * 69999, 1e-5);
+}
+
+TEST(C3d, AnalogOffsetGenScaleAndUnsignedFormatAreApplied) {
+  const std::string dir = test::scratchDir("c3d_analog");
+  C3dFile src = makeSynthetic(3, 1, 1, 2);
+  const double v[6] = {-1.0, 0.5, 0.25, -0.75, 0.0, 1.0};
+  for (int s = 0; s < 6; ++s) src.analog.data(s, 0) = v[s];
+  writeC3d(dir + "/a.c3d", src, {"Intel", false, 0.1, "mm"});
+  std::string b = readBytes(dir + "/a.c3d");
+  const C3dFile plain = readC3d(dir + "/a.c3d");
+  const double scale = plain.findParameter("ANALOG", "SCALE")->values.at(0);
+  EXPECT_DOUBLE_EQ(float(scale), float(1.0 / 32000.0));  // max |v| / 32000
+  // Patch ANALOG:OFFSET[0] = 100 and GEN_SCALE = 2.0 (IEEE 0x40000000, little-endian).
+  const size_t off = findParameterData(b, 2, "OFFSET");
+  const size_t gen = findParameterData(b, 2, "GEN_SCALE");
+  ASSERT_GT(off, 0u);
+  ASSERT_GT(gen, 0u);
+  putLe16(b, off, 100);
+  b.replace(gen, 4, std::string("\x00\x00\x00\x40", 4));
+  writeBytes(dir + "/b.c3d", b);
+  const C3dFile c = readC3d(dir + "/b.c3d");
+  for (int s = 0; s < 6; ++s) {
+    const double raw = std::round(v[s] / scale);  // stored counts
+    EXPECT_NEAR(c.analog.data(s, 0), (raw - 100) * scale * 2.0, 1e-12) << s;
+  }
+  // FORMAT = UNSIGNED: the same words read as 0..65535 (-32000 counts become 33536).
+  const size_t fmt = findParameterData(b, 2, "FORMAT");
+  ASSERT_GT(fmt, 0u);
+  ASSERT_EQ(b.substr(fmt, 8), "SIGNED  ");
+  b.replace(fmt, 8, "UNSIGNED");
+  writeBytes(dir + "/u.c3d", b);
+  const C3dFile u = readC3d(dir + "/u.c3d");
+  EXPECT_NEAR(u.analog.data(0, 0), (33536 - 100) * scale * 2.0, 1e-9);
+  EXPECT_NEAR(u.analog.data(1, 0), (16000 - 100) * scale * 2.0, 1e-9);
+}
+
+TEST(C3d, FloatPointFramesCountsFramesBeyondTheHeaderWithoutTrialFields) {
+  const std::string dir = test::scratchDir("c3d_float_frames");
+  writeC3d(dir + "/l.c3d", makeSynthetic(70000, 1, 0, 0));
+  std::string b = readBytes(dir + "/l.c3d");
+  // Rename the TRIAL parameters so only the header (first 5, last 65535) and the float
+  // POINT:FRAMES = 70000 remain.
+  for (const std::string name : {"ACTUAL_START_FIELD", "ACTUAL_END_FIELD"}) {
+    const size_t at = b.find(name, 512);
+    ASSERT_NE(at, std::string::npos);
+    b[at] = 'X';
+  }
+  writeBytes(dir + "/m.c3d", b);
+  const C3dFile c = readC3d(dir + "/m.c3d");
+  EXPECT_EQ(c.findParameter("TRIAL", "ACTUAL_START_FIELD"), nullptr);
+  EXPECT_EQ(c.findParameter("POINT", "FRAMES")->type, 4);
+  EXPECT_EQ(c.first_frame, 5);
+  EXPECT_EQ(c.markers.getNumFrames(), 70000);
+  EXPECT_EQ(c.last_frame, 70004);
 }
 
 TEST(C3d, IntegerFileWithTooLargeCoordinateIsRejectedAndNothingIsWritten) {
