@@ -1,15 +1,18 @@
 # Install and export, MuJoCo-style: kneesim::engine, a package config and a version file.
+# Components: "engine" (library, headers, CMake package: all a plugin author needs), "plugins",
+# "data"; the kneesim command has none. `cmake --install <build> --component engine` needs only the
+# kneesim_engine target built.
 include(CMakePackageConfigHelpers)
 
 install(TARGETS kneesim_engine EXPORT kneesimTargets
-  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
-  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT engine
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT engine
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT engine
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/kneesim)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/engine/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/kneesim
-  FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
+  COMPONENT engine FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
 install(EXPORT kneesimTargets NAMESPACE kneesim:: FILE kneesimTargets.cmake
-  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim)
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim COMPONENT engine)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/kneesimConfig.cmake.in
   ${PROJECT_BINARY_DIR}/kneesimConfig.cmake
   INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim
@@ -17,5 +20,5 @@ configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/kneesimConfig.cmake.in
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/kneesimConfigVersion.cmake
   VERSION ${PROJECT_VERSION} COMPATIBILITY SameMajorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/kneesimConfig.cmake ${PROJECT_BINARY_DIR}/kneesimConfigVersion.cmake
-  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim)
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/share/ DESTINATION ${CMAKE_INSTALL_DATADIR}/kneesim)
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim COMPONENT engine)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/share/ DESTINATION ${CMAKE_INSTALL_DATADIR}/kneesim COMPONENT data)

@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 
 #include "core/error.hpp"
@@ -43,14 +44,15 @@ void Registry::addSearchDirectory(const std::string& dir) { search_dirs_.insert(
 
 void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation& context) {
   std::string path;
-  if (name_or_path.find('/') != std::string::npos || endsWith(name_or_path, ".so")) {
-    if (fs::exists(name_or_path)) path = fs::absolute(name_or_path).string();
+  const bool is_path = name_or_path.find('/') != std::string::npos || endsWith(name_or_path, ".so");
+  if (is_path) {
+    if (fs::exists(name_or_path)) path = fs::absolute(name_or_path).lexically_normal().string();
   } else {
     for (const auto& d : search_dirs_) {
       for (const std::string& f : {"libkneesim_" + name_or_path + ".so", "lib" + name_or_path + ".so"}) {
         const fs::path p = fs::path(d) / f;
         if (fs::exists(p)) {
-          path = fs::absolute(p).string();
+          path = fs::absolute(p).lexically_normal().string();
           break;
         }
       }
@@ -58,10 +60,13 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
     }
   }
   if (path.empty()) {
+    if (is_path) throw InputError(context, "no plugin '" + name_or_path + "': the file does not exist");
     std::string dirs;
     for (const auto& d : search_dirs_) dirs += (dirs.empty() ? "" : ", ") + d;
-    throw InputError(context, "no plugin '" + name_or_path + "' found (searched: " +
-                                  (dirs.empty() ? std::string("nothing; set KNEESIM_PLUGIN_PATH") : dirs) + ")");
+    throw InputError(context, "no plugin '" + name_or_path + "' found (looked for libkneesim_" + name_or_path +
+                                  ".so and lib" + name_or_path + ".so in: " +
+                                  (dirs.empty() ? std::string("no folders; set KNEESIM_PLUGIN_PATH") : dirs) +
+                                  ")");
   }
   for (const auto& lib : libraries_)
     if (lib->path == path) return;
@@ -73,30 +78,99 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
     const char* why = dlerror();
     throw InputError(context, "cannot load plugin '" + path + "': " + (why ? why : "unknown error"));
   }
+  // The same file reached through another path (a symlink) is already registered.
+  for (const auto& other : libraries_)
+    if (other->handle == lib->handle) return;  // ~Library drops the extra reference
   auto* fn = reinterpret_cast<kneesim_plugin_register_fn>(dlsym(lib->handle, "kneesim_plugin_register"));
-  if (!fn) throw InputError(context, "'" + path + "' is not a kneesim plugin: it does not export kneesim_plugin_register");
+  if (!fn)
+    throw InputError(context,
+                     "'" + path + "' is not a kneesim plugin: it does not export kneesim_plugin_register");
   kneesim_registrar r{KNEESIM_PLUGIN_ABI_VERSION, this, &Registry::addLawThunk, &Registry::addProviderThunk};
   loading_ = path;
   reject_.clear();
-  const int rc = fn(&r);
+  added_.clear();
+  int rc = 0;
+  try {
+    rc = fn(&r);
+  } catch (const std::exception& e) {  // a C++ plugin that let an exception escape
+    rc = -1;
+    if (reject_.empty()) reject_ = e.what();
+  } catch (...) {
+    rc = -1;
+  }
   loading_.clear();
-  if (rc != 0)
-    throw InputError(context, "plugin '" + path + "' failed to register" + (reject_.empty() ? "" : ": " + reject_));
+  if (rc != 0) {
+    // The tables live in the library that is about to be unloaded: forget what it registered.
+    for (const auto& [is_law, name] : added_) {
+      if (is_law) {
+        laws_.erase(name);
+        law_origins_.erase(name);
+      } else {
+        providers_.erase(name);
+        provider_origins_.erase(name);
+      }
+    }
+    added_.clear();
+    throw InputError(context, "plugin '" + path + "' failed to register (code " + std::to_string(rc) + ")" +
+                                  (reject_.empty() ? "" : ": " + reject_));
+  }
+  added_.clear();
   libraries_.push_back(std::move(lib));
 }
 
+namespace {
+
+// Why a contact-law table is unusable, or "" when it is fine.
+std::string checkLawTable(const kneesim_contact_law* law) {
+  if (!law) return "contact-law table is NULL";
+  if (law->struct_size < static_cast<int>(sizeof(kneesim_contact_law)))
+    return "contact-law table has struct_size " + std::to_string(law->struct_size) + ", expected at least " +
+           std::to_string(sizeof(kneesim_contact_law)) + " (ABI version " +
+           std::to_string(KNEESIM_PLUGIN_ABI_VERSION) + ")";
+  if (!law->name || !*law->name) return "contact-law table has no name";
+  const std::string who = std::string("contact law '") + law->name + "': ";
+  if (!law->calc_force) return who + "calc_force is NULL";
+  if (law->n_params < 0 || (law->n_params > 0 && !law->params))
+    return who + "expected n_params >= 0 with a params array, got n_params = " + std::to_string(law->n_params);
+  for (int i = 0; i < law->n_params; ++i) {
+    const kneesim_param& p = law->params[i];
+    if (!p.name || !*p.name) return who + "parameter " + std::to_string(i) + " has no name";
+    for (int j = 0; j < i; ++j)
+      if (std::string(law->params[j].name) == p.name) return who + "parameter '" + p.name + "' appears twice";
+    if (!(p.lower <= p.default_value && p.default_value <= p.upper))
+      return who + "parameter '" + p.name + "': expected lower <= default <= upper, got " +
+             std::to_string(p.lower) + " <= " + std::to_string(p.default_value) + " <= " + std::to_string(p.upper);
+    if (!(p.typical_scale > 0)) return who + "parameter '" + p.name + "': expected typical_scale > 0";
+  }
+  if (law->n_inputs < 0 || (law->n_inputs > 0 && !law->inputs)) return who + "invalid n_inputs/inputs";
+  for (int i = 0; i < law->n_inputs; ++i)
+    if (!law->inputs[i] || !*law->inputs[i]) return who + "input " + std::to_string(i) + " has no name";
+  if (law->n_derived < 0 ||
+      (law->n_derived > 0 && (!law->derived_names || !law->derived_units || !law->calc_derived)))
+    return who + "n_derived > 0 needs derived_names, derived_units and calc_derived";
+  for (int i = 0; i < law->n_derived; ++i)
+    if (!law->derived_names[i] || !law->derived_units[i])
+      return who + "derived quantity " + std::to_string(i) + " has no name or unit";
+  return "";
+}
+
+}  // namespace
+
 int Registry::addLawThunk(void* host, const kneesim_contact_law* law) {
   auto* self = static_cast<Registry*>(host);
-  if (!law || !law->name || !law->calc_force || law->n_params < 0 || (law->n_params > 0 && !law->params)) {
-    self->reject_ = "invalid contact-law table";
+  const std::string why = checkLawTable(law);
+  if (!why.empty()) {
+    self->reject_ = why;
     return 1;
   }
   if (self->laws_.count(law->name)) {
-    self->reject_ = std::string("contact law '") + law->name + "' is already registered by " + self->origins_[law->name];
+    self->reject_ =
+        std::string("contact law '") + law->name + "' is already registered by " + self->law_origins_[law->name];
     return 2;
   }
   self->laws_[law->name] = law;
-  self->origins_[law->name] = self->loading_.empty() ? "built-in" : self->loading_;
+  self->law_origins_[law->name] = self->loading_.empty() ? "built-in" : self->loading_;
+  self->added_.emplace_back(true, law->name);
   return 0;
 }
 
@@ -107,11 +181,13 @@ int Registry::addProviderThunk(void* host, const kneesim_distance_provider* p) {
     return 1;
   }
   if (self->providers_.count(p->name)) {
-    self->reject_ = std::string("distance provider '") + p->name + "' is already registered";
+    self->reject_ = std::string("distance provider '") + p->name + "' is already registered by " +
+                    self->provider_origins_[p->name];
     return 2;
   }
   self->providers_[p->name] = p;
-  self->origins_[p->name] = self->loading_.empty() ? "built-in" : self->loading_;
+  self->provider_origins_[p->name] = self->loading_.empty() ? "built-in" : self->loading_;
+  self->added_.emplace_back(false, p->name);
   return 0;
 }
 
@@ -172,8 +248,9 @@ std::vector<std::string> Registry::getDistanceProviderNames() const {
 }
 
 std::string Registry::findOrigin(const std::string& name) const {
-  auto it = origins_.find(name);
-  return it == origins_.end() ? "" : it->second;
+  if (auto it = law_origins_.find(name); it != law_origins_.end()) return it->second;
+  if (auto it = provider_origins_.find(name); it != provider_origins_.end()) return it->second;
+  return "";
 }
 
 }  // namespace kneesim::plugin

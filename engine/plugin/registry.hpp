@@ -4,6 +4,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/error.hpp"
@@ -20,10 +21,13 @@ class Registry {
   Registry(const Registry&) = delete;
   Registry& operator=(const Registry&) = delete;
 
-  /// Loads the plugin @p name_or_path: an existing path, or a bare name such as "hertz" searched
-  /// as lib<name>.so / libkneesim_<name>.so in the search path. Loading the same library twice is
-  /// a no-op. Throws InputError ("no plugin 'x' in: dir1, dir2") naming @p context (the setup
-  /// file and element) when it cannot be found or does not export kneesim_plugin_register.
+  /// Loads the plugin @p name_or_path: an existing path (anything with a '/' or ending in ".so"),
+  /// or a bare name such as "hertz" searched as libkneesim_<name>.so, then lib<name>.so, in each
+  /// search folder in turn. Loading the same library twice is a no-op. Throws a one-line
+  /// InputError at @p context (the setup file and element) when the plugin cannot be found
+  /// (naming the plugin and every folder searched), cannot be loaded, does not export
+  /// kneesim_plugin_register, or is refused (invalid table, a name already registered by another
+  /// library). A refused plugin leaves the registry as it was.
   void loadPlugin(const std::string& name_or_path, const SourceLocation& context = {});
 
   /// Folders searched by loadPlugin, in order: those added here, then $KNEESIM_PLUGIN_PATH
@@ -31,7 +35,8 @@ class Registry {
   void addSearchDirectory(const std::string& dir);
   const std::vector<std::string>& getSearchDirectories() const { return search_dirs_; }
 
-  /// Registers a table directly (plugins linked into the executable, tests).
+  /// Registers a table directly (plugins linked into the executable, tests). The table must outlive
+  /// the registry. Throws InternalError if it is invalid or its name is taken.
   void adoptContactLaw(const kneesim_contact_law* law, const std::string& origin = "built-in");
   void adoptDistanceProvider(const kneesim_distance_provider* provider, const std::string& origin = "built-in");
 
@@ -54,9 +59,11 @@ class Registry {
   std::vector<std::unique_ptr<Library>> libraries_;
   std::map<std::string, const kneesim_contact_law*> laws_;
   std::map<std::string, const kneesim_distance_provider*> providers_;
-  std::map<std::string, std::string> origins_;
-  std::string loading_;  // library being registered, for origins_
+  std::map<std::string, std::string> law_origins_;
+  std::map<std::string, std::string> provider_origins_;
+  std::string loading_;  // library being registered, for the origins
   std::string reject_;   // why the last add_* was refused
+  std::vector<std::pair<bool, std::string>> added_;  // (is law, name) registered by the library being loaded
 
   static int addLawThunk(void* host, const kneesim_contact_law* law);
   static int addProviderThunk(void* host, const kneesim_distance_provider* provider);
