@@ -1,0 +1,1 @@
+kneesim_add_benchmark(identify MODULES identify DEPENDS kneesim_hertz)
