@@ -28,9 +28,9 @@ inline constexpr double kDegree = 3.14159265358979323846 / 180.0;
 /// The defaults are those of the kgc4-jw implant STL files (a right knee): x posterior,
 /// y superior, z medial (the medial halves have z >= 0; the tibial insert's PCL notch is at +x).
 struct ComponentDirections {
-  Eigen::Vector3d posterior = Eigen::Vector3d::UnitX();
-  Eigen::Vector3d superior = Eigen::Vector3d::UnitY();
-  Eigen::Vector3d medial = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d posterior = Eigen::Vector3d::UnitX();  ///< Toward the back of the knee.
+  Eigen::Vector3d superior = Eigen::Vector3d::UnitY();   ///< Toward the hip.
+  Eigen::Vector3d medial = Eigen::Vector3d::UnitZ();     ///< Toward the other knee.
 
   /// The flexion axis superior x posterior (unit): a positive rotation about it turns the femur's
   /// superior direction toward posterior, i.e. flexes the knee, for a left or a right knee.
@@ -51,17 +51,17 @@ const char* toString(CondyleSide side);
 
 /// A surface point with its unit outward normal.
 struct SurfacePoint {
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();  ///< Position (m).
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();  ///< Unit outward normal.
 };
 
 /// The sagittal plane of a flexion hinge: an origin on the axis, the unit flexion axis and the
 /// unit distal and posterior directions perpendicular to it (posterior = distal x axis).
 struct SagittalFrame {
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d distal = -Eigen::Vector3d::UnitY();
-  Eigen::Vector3d posterior = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< A point on the flexion axis.
+  Eigen::Vector3d axis = -Eigen::Vector3d::UnitZ();      ///< Unit flexion axis.
+  Eigen::Vector3d distal = -Eigen::Vector3d::UnitY();    ///< Unit distal direction, perpendicular to axis.
+  Eigen::Vector3d posterior = Eigen::Vector3d::UnitX();  ///< Unit posterior direction, distal x axis.
 
   /// The frame of the hinge @p hinge (its axis oriented in the flexion sense of @p directions),
   /// with distal = -superior made perpendicular to the axis.
@@ -84,7 +84,7 @@ struct SagittalFrame {
 
 /// The rule selecting a femoral component's articular condylar surface (see selectArticularPoints).
 struct ArticularSelection {
-  ComponentDirections directions;
+  ComponentDirections directions;  ///< Anatomical directions in the mesh's frame.
   /// Window of facing angles (rad) kept; the default is the flexion range 0..120 deg.
   double min_facing_angle = 0.0;
   double max_facing_angle = 120.0 * kDegree;
@@ -100,7 +100,7 @@ struct ArticularSelection {
   /// candidates of the same condyle facing the same way (1 deg bins). Drops recessed surfaces
   /// that face the tibia too, such as the roof of the intercondylar notch.
   double max_recess = 3e-3;
-  CondyleSide side = CondyleSide::both;
+  CondyleSide side = CondyleSide::both;  ///< Condyle(s) to select from.
   /// Origin of the medial/lateral split plane (normal = directions.medial) and of the sagittal
   /// frame; defaults to the centre of the mesh's bounding box.
   std::optional<Eigen::Vector3d> reference_point;
@@ -173,9 +173,9 @@ struct SagittalRadiusSample {
 
 /// Sagittal radius of curvature of one condyle as a function of flexion.
 struct SagittalRadiusTable {
-  CondyleSide side = CondyleSide::both;
+  CondyleSide side = CondyleSide::both;  ///< The condyle the table describes.
   double profile_axial = 0;  ///< Axial coordinate of the profile plane used (m).
-  std::vector<SagittalRadiusSample> samples;
+  std::vector<SagittalRadiusSample> samples;  ///< One row per flexion angle, first..last.
 };
 
 /// Radius of curvature of a condyle's sagittal profile as a function of the flexion angle at

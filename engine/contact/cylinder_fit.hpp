@@ -27,7 +27,7 @@ struct Cylinder {
 
 /// Residual statistics of a fit: absolute geometric distances of the points from the fitted shape.
 struct FitErrors {
-  int num_points = 0;
+  int num_points = 0;   ///< Number of points fitted.
   double mean_abs = 0;  ///< Mean absolute distance (m): the paper's "mean error".
   double max_abs = 0;   ///< Largest absolute distance (m).
   double rms = 0;       ///< Root mean square distance (m).
@@ -39,7 +39,7 @@ struct CylinderFitOptions {
   /// direction most nearly perpendicular to all of them) or else from each of the points'
   /// three principal axes in turn, keeping the best fit.
   std::optional<Eigen::Vector3d> axis_guess;
-  int max_iterations = 200;
+  int max_iterations = 200;  ///< Levenberg-Marquardt iterations per start.
   /// A fit whose radius exceeds this multiple of the points' largest extent is rejected as
   /// "nearly flat" (planar points have no finite cylinder).
   double max_radius_ratio = 1e3;
@@ -52,7 +52,7 @@ struct CylinderFit {
   /// The fitted cylinder. Its point is the axis point nearest the points' centroid; its axis
   /// points along axis_guess when one was given, else its largest component is positive.
   Cylinder cylinder;
-  FitErrors errors;
+  FitErrors errors;    ///< Distances of the points from the fitted cylinder.
   int iterations = 0;  ///< Levenberg-Marquardt iterations of the accepted start.
 };
 
@@ -70,15 +70,15 @@ CylinderFit fitCylinder(const std::vector<Eigen::Vector3d>& points, const std::v
 
 /// A circle in a plane.
 struct Circle {
-  Eigen::Vector2d center = Eigen::Vector2d::Zero();
-  double radius = 0;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();  ///< Centre (m).
+  double radius = 0;                                  ///< Radius (m).
 };
 
 /// Result of fitCircle.
 struct CircleFit {
-  Circle circle;
-  FitErrors errors;
-  int iterations = 0;
+  Circle circle;       ///< The fitted circle.
+  FitErrors errors;    ///< Distances of the points from it.
+  int iterations = 0;  ///< Levenberg-Marquardt iterations.
 };
 
 /// Fits a circle to planar @p points (geometric least squares, started from the algebraic

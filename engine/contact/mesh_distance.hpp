@@ -47,6 +47,7 @@ class MeshDistance {
   /// surface for t in (t_min, t_max), or +infinity when there is none.
   double calcRayHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min, double t_max) const;
 
+  /// The mesh the tree was built over (a copy).
   const io::TriangleMesh& getMesh() const { return mesh_; }
   /// Unit outward normal of each triangle (zero for degenerate triangles).
   const std::vector<Eigen::Vector3d>& getTriangleNormals() const { return face_normal_; }

@@ -46,6 +46,7 @@ namespace kneesim::contact {
 class PointSetDistance {
  public:
   virtual ~PointSetDistance() = default;
+  /// Number of query points.
   virtual int getNumPoints() const = 0;
   /// Fills @p distance (resized to getNumPoints()) with each point's signed distance to the
   /// target, negative inside. Points farther than @p max_distance from the surface (outside or
@@ -141,7 +142,7 @@ struct SeatingCoordinates {
 /// A seated pose.
 struct SeatingResult {
   double flexion = 0;  ///< Flexion angle about the hinge (rad).
-  SeatingCoordinates q;
+  SeatingCoordinates q;  ///< The seated coordinates.
   Eigen::Isometry3d X_IF = Eigen::Isometry3d::Identity();  ///< Pose of F in I.
   /// Smallest signed distance of each condyle to the insert at X_IF (m): the residual gap (> 0)
   /// or penetration (< 0), |gap| <= tolerance when converged.
@@ -185,7 +186,9 @@ class Seater {
   /// in SeatingResult).
   void calcGaps(const Eigen::Isometry3d& X_IF, double max_distance, double gap[2], Eigen::Vector3d* where_I);
 
+  /// The components and points being seated.
   const SeatingSetup& getSetup() const { return setup_; }
+  /// The solver settings.
   const SeatingOptions& getOptions() const { return options_; }
 
  private:
