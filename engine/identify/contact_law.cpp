@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "plugin/registry.hpp"
+
 namespace kneesim::identify {
 
 namespace {
@@ -68,6 +70,11 @@ ContactLaw::ContactLaw(const kneesim_contact_law& table, std::string origin)
     derived_names_.emplace_back(table.derived_names[i]);
     derived_units_.emplace_back(table.derived_units[i]);
   }
+}
+
+ContactLaw ContactLaw::fromRegistry(const plugin::Registry& registry, const std::string& name,
+                                    const SourceLocation& where) {
+  return ContactLaw(registry.getContactLaw(name, where), registry.findOrigin(name));
 }
 
 int ContactLaw::findParameterIndex(const std::string& name) const {

@@ -10,6 +10,10 @@
 #include "core/error.hpp"
 #include "plugin/kneesim_plugin.h"
 
+namespace kneesim::plugin {
+class Registry;
+}
+
 namespace kneesim::identify {
 
 /// Per-frame channels of one trial by name, in SI units (see kneesim_inputs for the names).
@@ -68,6 +72,10 @@ class ContactLaw {
  public:
   /// Wraps @p table, registered by @p origin (the library path, or "built-in").
   explicit ContactLaw(const kneesim_contact_law& table, std::string origin = "built-in");
+  /// The law registered as @p name in @p registry (which must outlive it); throws InputError at
+  /// @p where listing the loaded laws if there is none.
+  static ContactLaw fromRegistry(const plugin::Registry& registry, const std::string& name,
+                                 const SourceLocation& where = {});
 
   const std::string& getName() const { return name_; }
   const std::string& getDescription() const { return description_; }

@@ -88,8 +88,9 @@ TEST(ContactLaw, ChannelLengthsAreChecked) {
 TEST(ContactLaw, PluginLawFromTheRegistry) {
   plugin::Registry r;
   r.loadPlugin("hertz");
-  const ContactLaw law(r.getContactLaw("hertz"), r.findOrigin("hertz"));
+  const ContactLaw law = ContactLaw::fromRegistry(r, "hertz");
   EXPECT_THAT(law.getOrigin(), HasSubstr("libkneesim_hertz.so"));
+  EXPECT_THROW(ContactLaw::fromRegistry(r, "hertzz"), InputError);
   EXPECT_EQ(law.getDerivedUnits(), (std::vector<std::string>{"Pa", "Pa/m"}));
   // K = E / (1 - nu^2) by hand: 1e9 / 0.75 at nu = 0.5.
   EXPECT_NEAR(law.calcDerived(Eigen::Vector3d(1e9, 0.5, 0.04))[0], 1e9 / 0.75, 1e-3);

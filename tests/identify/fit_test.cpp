@@ -324,3 +324,57 @@ TEST_F(Fit, PredictHeldOutTrialAndPhases) {
 
 }  // namespace
 }  // namespace kneesim::identify
+
+namespace kneesim::identify {
+namespace {
+
+// F = a S + b: linear in both parameters, so with white noise the profile-likelihood and the
+// Gauss-Newton (Wald) intervals must agree closely and cover the truth.
+int affineForce(const double* p, const kneesim_inputs* in, double* f, double* df, char*, int) {
+  const double* s = nullptr;
+  for (int c = 0; c < in->n_channels; ++c)
+    if (std::string(in->names[c]) == "S") s = in->values[c];
+  for (int i = 0; i < in->n_frames; ++i) {
+    f[i] = p[0] * s[i] + p[1];
+    if (df) {
+      df[i] = s[i];
+      df[in->n_frames + i] = 1.0;
+    }
+  }
+  return 0;
+}
+const kneesim_param kAffineParams[] = {{"a", "Pa", 0, 1e9, 1e6, 1e6, 0, "slope"},
+                                       {"b", "N", -1e4, 1e4, 0, 100, 0, "offset"}};
+const char* const kAffineInputs[] = {"S"};
+const kneesim_contact_law kAffine = {sizeof(kneesim_contact_law), "affine", "a S + b", 2, kAffineParams, 1,
+                                     kAffineInputs, affineForce, 0, nullptr, nullptr, nullptr};
+
+TEST(FitTwoParameters, ProfileAndWaldIntervalsAgreeForALinearLaw) {
+  const ContactLaw law(kAffine);
+  const double a = 2.5e6, b = -150;
+  Trial t = test::makeTrial("walk", [&](double s) { return a * s + b; }, 40.0, 11);
+  FitOptions o;
+  o.confidence.bootstrap_samples = 100;
+  const FitReport r = fit(law, {t}, o);
+  ASSERT_TRUE(r.solver.success);
+  EXPECT_TRUE(r.fixed_by_identifiability.empty());
+  EXPECT_TRUE(r.identifiability_start.isIdentifiable());
+  for (const char* name : {"a", "b"}) {
+    const ParameterResult& p = r.getParameter(name);
+    const double truth = std::string(name) == "a" ? a : b;
+    const double wald = p.ci_asymptotic.upper - p.ci_asymptotic.lower;
+    const double prof = p.ci_profile.upper - p.ci_profile.lower;
+    std::cout << "[ info     ] " << name << " = " << p.value << " (true " << truth << "): Wald [" << p.ci_asymptotic.lower
+              << ", " << p.ci_asymptotic.upper << "], profile [" << p.ci_profile.lower << ", " << p.ci_profile.upper
+              << "], bootstrap [" << p.ci_bootstrap.lower << ", " << p.ci_bootstrap.upper << "]\n";
+    EXPECT_NEAR(prof / wald, 1.0, 0.05) << name;
+    EXPECT_NEAR(0.5 * (p.ci_profile.lower + p.ci_profile.upper), p.value, 0.02 * wald) << name;
+    EXPECT_LT(p.ci_profile.lower, truth);
+    EXPECT_GT(p.ci_profile.upper, truth);
+    EXPECT_LT(p.ci_bootstrap.lower, truth);
+    EXPECT_GT(p.ci_bootstrap.upper, truth);
+  }
+}
+
+}  // namespace
+}  // namespace kneesim::identify
