@@ -1,0 +1,1 @@
+kneesim_add_benchmark(ik MODULES ik)
