@@ -8,34 +8,59 @@
 namespace kneesim::tool {
 
 namespace {
-bool isIkTag(const std::string& tag) {
-  const std::string t = toLower(tag);
-  return startsWith(t, "inversekinem") && endsWith(t, "tool");
+
+void runIkTool(const std::string& setup_path, const RunOptions& options) {
+  const ik::IkSetup setup = ik::readIkSetup(setup_path);
+  ik::IkRunOptions ro;
+  if (options.progress) ro.progress = [&](int d, int t) { options.progress("IK", d, t); };
+  const ik::IkReport report = ik::runIk(setup, ro);
+  if (options.out) ik::printIkSummary(report, *options.out);
 }
+
+std::vector<ToolEntry> makeTools() {
+  std::vector<ToolEntry> tools;
+  // OpenSim accepts its own historical misspellings (e.g. "InverseKinemtaticsTool").
+  tools.push_back({"ik", "InverseKinematicsTool",
+                   [](const std::string& tag) {
+                     const std::string t = toLower(tag);
+                     return startsWith(t, "inversekinem") && endsWith(t, "tool");
+                   },
+                   runIkTool});
+  return tools;
+}
+
+const ToolEntry* findTool(const std::string& tag) {
+  for (const ToolEntry& t : getTools())
+    if (t.matches ? t.matches(tag) : t.root_tag == tag) return &t;
+  return nullptr;
+}
+
 }  // namespace
+
+const std::vector<ToolEntry>& getTools() {
+  static const std::vector<ToolEntry> tools = makeTools();
+  return tools;
+}
 
 std::string detectTool(const std::string& setup_path) {
   auto doc = xml::Document::load(setup_path);
   xml::Node root = doc->root();
-  std::vector<xml::Node> candidates = {root};
-  for (const xml::Node& c : root.children()) candidates.push_back(c);
-  for (const xml::Node& n : candidates) {
-    if (isIkTag(n.name())) return "ik";
+  xml::Node selector = root;
+  if (root.name() == "OpenSimDocument") {
+    const auto kids = root.children();
+    if (kids.empty()) root.fail("empty <OpenSimDocument> (expected a tool element inside it)");
+    selector = kids.front();
   }
-  std::string seen = root.name();
-  if (root.name() == "OpenSimDocument" && !root.children().empty()) seen = root.children().front().name();
-  root.fail("unknown tool <" + seen + "> (expected InverseKinematicsTool)");
+  if (const ToolEntry* t = findTool(selector.name())) return t->name;
+  std::string known;
+  for (const ToolEntry& t : getTools()) known += (known.empty() ? "" : ", ") + t.root_tag;
+  selector.fail("unknown tool <" + selector.name() + "> (expected one of " + known + ")");
 }
 
 void runSetupFile(const std::string& setup_path, const RunOptions& options) {
-  const std::string kind = detectTool(setup_path);
-  if (kind == "ik") {
-    const ik::IkSetup setup = ik::readIkSetup(setup_path);
-    ik::IkRunOptions ro;
-    if (options.progress) ro.progress = [&](int d, int t) { options.progress("IK", d, t); };
-    const ik::IkReport report = ik::runIk(setup, ro);
-    if (options.out) ik::printIkSummary(report, *options.out);
-  }
+  const std::string name = detectTool(setup_path);
+  for (const ToolEntry& t : getTools())
+    if (t.name == name) return t.run(setup_path, options);
 }
 
 }  // namespace kneesim::tool
