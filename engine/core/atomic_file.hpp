@@ -4,7 +4,9 @@
 
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace kneesim {
 
@@ -31,6 +33,34 @@ class AtomicFile {
   std::string path_;
   std::string tmp_;
   std::ofstream out_;
+  bool committed_ = false;
+};
+
+/// Several output files that appear together or not at all. Each file is staged to a temporary
+/// file beside its target; commit() renames them all into place. If one rename fails, the files
+/// already renamed are rolled back (an earlier version of a target is restored, a new target
+/// removed) and InputError is thrown, so a run's outputs never mix with a failed run's. A set
+/// destroyed before commit() removes its temporaries and touches no target.
+class AtomicFileSet {
+ public:
+  AtomicFileSet();
+  ~AtomicFileSet();
+  AtomicFileSet(const AtomicFileSet&) = delete;
+  AtomicFileSet& operator=(const AtomicFileSet&) = delete;
+
+  /// Stages @p path (creating missing parent folders) and returns the stream to write it to.
+  /// Throws InputError naming @p path if it is already staged or cannot be created.
+  std::ostream& add(const std::string& path, bool binary = false);
+  /// Stages @p path with the given contents.
+  void addContents(const std::string& path, const std::string& contents, bool binary = false);
+  /// Checks every stream for write errors, then renames all staged files into place.
+  void commit();
+  /// Final paths of the staged files, in staging order.
+  std::vector<std::string> getPaths() const;
+
+ private:
+  struct Entry;
+  std::vector<std::unique_ptr<Entry>> entries_;
   bool committed_ = false;
 };
 

@@ -142,7 +142,7 @@ Storage readStorage(const std::string& path) {
   return s;
 }
 
-void writeStorage(const std::string& path, const Storage& s) {
+std::string formatStorage(const Storage& s) {
   KNEESIM_CHECK(s.data.cols() == Eigen::Index(s.labels.size()) || s.data.size() == 0,
                 "Storage '" + s.name + "': data has a different number of columns than labels");
   std::string out;
@@ -181,6 +181,11 @@ void writeStorage(const std::string& path, const Storage& s) {
     }
     out += '\n';
   }
+  return out;
+}
+
+void writeStorage(const std::string& path, const Storage& s) {
+  const std::string out = formatStorage(s);
   AtomicFile file(path);
   file.stream().write(out.data(), std::streamsize(out.size()));
   file.commit();

@@ -46,4 +46,7 @@ Storage readStorage(const std::string& path);
 /// (values below 1e-3 in magnitude keep 9 significant digits instead), NaN as "NaN", atomically.
 void writeStorage(const std::string& path, const Storage& storage);
 
+/// The text writeStorage() writes, for callers that commit several files together.
+std::string formatStorage(const Storage& storage);
+
 }  // namespace kneesim::io

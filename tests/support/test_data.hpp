@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace kneesim::test {
@@ -15,10 +16,12 @@ inline std::string dataPath(const std::string& rel) { return std::string(KNEESIM
 inline std::string fixturePath(const std::string& rel) { return std::string(KNEESIM_TEST_DIR) + "/" + rel; }
 /// Path of @p rel under the repository root.
 inline std::string sourcePath(const std::string& rel) { return std::string(KNEESIM_SOURCE_DIR) + "/" + rel; }
-/// A fresh empty scratch folder for one test.
+/// A fresh empty scratch folder for one test. Its name carries a hash of the source folder so
+/// that test runs of different checkouts on one machine do not share folders.
 inline std::string scratchDir(const std::string& name) {
   namespace fs = std::filesystem;
-  fs::path p = fs::temp_directory_path() / ("kneesim_test_" + name);
+  const std::string tag = std::to_string(std::hash<std::string>{}(KNEESIM_SOURCE_DIR) % 100000);
+  fs::path p = fs::temp_directory_path() / ("kneesim_test_" + tag + "_" + name);
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();
