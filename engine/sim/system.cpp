@@ -5,6 +5,9 @@
 #endif
 #include <Simbody.h>
 
+#include <algorithm>
+#include <array>
+
 #include "core/error.hpp"
 
 namespace kneesim::sim {
@@ -89,6 +92,158 @@ class CouplerResidual final : public SimTK::Function {
   int n_;
 };
 
+/// OpenSim's CustomJoint as a Simbody Custom mobilizer, with the same kinematics as Simbody's
+/// MobilizedBody::FunctionBased: X_FM = (R(f0, a0) R(f1, a1) R(f2, a2), f3 a3 + f4 a4 + f5 a5), the
+/// rotations a body-fixed sequence and the translation expressed in F. Unlike FunctionBased it
+/// evaluates the model functions on plain arrays and reads q and u straight from the State, so
+/// realising positions allocates nothing (FunctionBased builds SimTK::Vectors for every function
+/// call and copies q out of the State), which makes it about twice as fast.
+///
+/// H is recomputed in each multiplyByHMatrix() call instead of being cached in the State: Simbody
+/// asks for one column per mobility, and each column needs only the derivatives of the axes that
+/// depend on that coordinate, so nothing is evaluated twice but the two leading rotations.
+class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Implementation {
+ public:
+  struct Axis {
+    model::FunctionPtr function;
+    std::vector<int> args;  // indices into the joint's coordinates
+    SimTK::UnitVec3 axis;
+  };
+
+  SpatialTransformMobilizer(SimTK::SimbodyMatterSubsystem& matter, SimTK::MobilizedBodyIndex self, int nc,
+                            std::array<Axis, 6> axes)
+      : Implementation(matter, nc, nc, 0), matter_(&matter), self_(self), nc_(nc), axes_(std::move(axes)) {}
+
+  Implementation* clone() const override { return new SpatialTransformMobilizer(*this); }
+
+  SimTK::Transform calcMobilizerTransformFromQ(const SimTK::State&, int nq, const SimTK::Real* q) const override {
+    KNEESIM_ASSERT(nq == nc_);
+    double v[6];
+    for (int a = 0; a < 6; ++a) v[a] = value(a, q);
+    const SimTK::Rotation R = SimTK::Rotation(v[0], axes_[0].axis) * SimTK::Rotation(v[1], axes_[1].axis) *
+                              SimTK::Rotation(v[2], axes_[2].axis);
+    return SimTK::Transform(R, v[3] * axes_[3].axis + v[4] * axes_[4].axis + v[5] * axes_[5].axis);
+  }
+
+  SimTK::SpatialVec multiplyByHMatrix(const SimTK::State& s, int nu, const SimTK::Real* u) const override {
+    KNEESIM_ASSERT(nu == nc_);
+    double q[6];
+    loadQ(s, q);
+    SimTK::Vec3 W[3];
+    calcW(q, W);
+    SimTK::SpatialVec V(SimTK::Vec3(0), SimTK::Vec3(0));
+    for (int a = 0; a < 6; ++a) {
+      const double rate = firstDerivative(a, q, u);
+      if (rate == 0) continue;
+      if (a < 3)
+        V[0] += rate * W[a];
+      else
+        V[1] += rate * axes_[a].axis;
+    }
+    return V;
+  }
+
+  void multiplyByHTranspose(const SimTK::State& s, const SimTK::SpatialVec& F, int nu, SimTK::Real* f) const override {
+    double e[6] = {0, 0, 0, 0, 0, 0};
+    for (int j = 0; j < nu; ++j) {
+      e[j] = 1;
+      const SimTK::SpatialVec H = multiplyByHMatrix(s, nu, e);
+      f[j] = SimTK::dot(H[0], F[0]) + SimTK::dot(H[1], F[1]);
+      e[j] = 0;
+    }
+  }
+
+  SimTK::SpatialVec multiplyByHDotMatrix(const SimTK::State& s, int nu, const SimTK::Real* u) const override {
+    // d/dt (H u) at fixed u: the rotated axes turn with the frames before them, and the rates
+    // of the functions change through their second derivatives.
+    KNEESIM_ASSERT(nu == nc_);
+    double q[6], qd[6];
+    loadQ(s, q);
+    loadU(s, qd);
+    SimTK::Vec3 W[3];
+    calcW(q, W);
+    const SimTK::Vec3 w1 = firstDerivative(0, q, qd) * W[0];  // angular velocity of frame 1 in F
+    const SimTK::Vec3 w2 = w1 + firstDerivative(1, q, qd) * W[1];
+    const SimTK::Vec3 Wdot[3] = {SimTK::Vec3(0), SimTK::cross(w1, W[1]), SimTK::cross(w2, W[2])};
+    SimTK::SpatialVec A(SimTK::Vec3(0), SimTK::Vec3(0));
+    for (int a = 0; a < 6; ++a) {
+      const double rate = firstDerivative(a, q, u);
+      const double rate_dot = secondDerivative(a, q, u, qd);
+      if (a < 3)
+        A[0] += rate * Wdot[a] + rate_dot * W[a];
+      else
+        A[1] += rate_dot * axes_[a].axis;
+    }
+    return A;
+  }
+
+  void multiplyByHDotTranspose(const SimTK::State& s, const SimTK::SpatialVec& F, int nu,
+                               SimTK::Real* f) const override {
+    double e[6] = {0, 0, 0, 0, 0, 0};
+    for (int j = 0; j < nu; ++j) {
+      e[j] = 1;
+      const SimTK::SpatialVec Hd = multiplyByHDotMatrix(s, nu, e);
+      f[j] = SimTK::dot(Hd[0], F[0]) + SimTK::dot(Hd[1], F[1]);
+      e[j] = 0;
+    }
+  }
+
+ private:
+  void loadQ(const SimTK::State& s, double* q) const {
+    const SimTK::MobilizedBody& mb = matter_->getMobilizedBody(self_);
+    for (int k = 0; k < nc_; ++k) q[k] = mb.getOneQ(s, k);
+  }
+  void loadU(const SimTK::State& s, double* u) const {
+    const SimTK::MobilizedBody& mb = matter_->getMobilizedBody(self_);
+    for (int k = 0; k < nc_; ++k) u[k] = mb.getOneU(s, k);
+  }
+  double value(int a, const double* q) const {
+    double x[6] = {0, 0, 0, 0, 0, 0};
+    const Axis& ax = axes_[a];
+    for (size_t k = 0; k < ax.args.size(); ++k) x[k] = q[ax.args[k]];
+    return ax.function->calcValue(x);
+  }
+  /// Rate of axis a's function for coordinate rates u: sum_k df/dx_k u[arg k].
+  double firstDerivative(int a, const double* q, const double* u) const {
+    const Axis& ax = axes_[a];
+    double x[6], rate = 0;
+    for (size_t k = 0; k < ax.args.size(); ++k) x[k] = q[ax.args[k]];
+    for (size_t k = 0; k < ax.args.size(); ++k) {
+      if (u[ax.args[k]] == 0) continue;
+      const int c[1] = {int(k)};
+      rate += ax.function->calcDerivative(x, c, 1) * u[ax.args[k]];
+    }
+    return rate;
+  }
+  /// sum_k sum_l d2f/dx_k dx_l u[arg k] qd[arg l].
+  double secondDerivative(int a, const double* q, const double* u, const double* qd) const {
+    const Axis& ax = axes_[a];
+    double x[6], acc = 0;
+    for (size_t k = 0; k < ax.args.size(); ++k) x[k] = q[ax.args[k]];
+    for (size_t k = 0; k < ax.args.size(); ++k)
+      for (size_t l = 0; l < ax.args.size(); ++l) {
+        const double w = u[ax.args[k]] * qd[ax.args[l]];
+        if (w == 0) continue;
+        const int c[2] = {int(k), int(l)};
+        acc += ax.function->calcDerivative(x, c, 2) * w;
+      }
+    return acc;
+  }
+  /// Rotation axes in F: a0, R1 a1, R1 R2 a2.
+  void calcW(const double* q, SimTK::Vec3 W[3]) const {
+    const SimTK::Rotation R1(value(0, q), axes_[0].axis);
+    const SimTK::Rotation R12 = R1 * SimTK::Rotation(value(1, q), axes_[1].axis);
+    W[0] = axes_[0].axis.asVec3();
+    W[1] = (R1 * axes_[1].axis).asVec3();
+    W[2] = (R12 * axes_[2].axis).asVec3();
+  }
+
+  const SimTK::SimbodyMatterSubsystem* matter_;
+  SimTK::MobilizedBodyIndex self_;
+  int nc_;
+  std::array<Axis, 6> axes_;
+};
+
 }  // namespace
 
 struct System::Impl {
@@ -100,15 +255,23 @@ struct System::Impl {
   std::vector<int> q_index;  // per model coordinate: index into State Q
   std::vector<int> u_index;  // per model coordinate: index into State U
   int nq = 0, nu = 0;
+  // Station Jacobians: for each model body, the coordinates of the joint that moves it and the
+  // body's parent; coordinates whose mobilizer has qdot != u (Gimbal, Ball, Free).
+  std::vector<std::vector<int>> body_coords;
+  std::vector<int> parent_body;
+  std::vector<int> n_coords;   // coordinates whose q differs from u, grouped by joint
+  std::vector<int> n_joint;    // their joint
   SimTK::State default_state;  // realised to Model stage with Euler angles
 };
 
 struct Workspace::Impl {
   SimTK::State state;
-  SimTK::Matrix JS;
-  SimTK::Array_<SimTK::MobilizedBodyIndex> bodies;
-  SimTK::Array_<SimTK::Vec3> stations;
-  SimTK::Vector row_in, row_out;
+  // Station-Jacobian scratch, sized once at creation.
+  std::vector<Eigen::Matrix<double, 6, 1>> H;  // per coordinate: (w, v) of its body for u = 1
+  std::vector<Eigen::Vector3d> p_GB;           // per body: origin in ground
+  SimTK::Vector q_unit, u_out;                 // N^-1 columns for qdot != u mobilizers
+  Eigen::Matrix<double, Eigen::Dynamic, 6> block;  // one joint's columns while converting
+  Eigen::Matrix<double, 6, 6> NInv;
 };
 
 Workspace::Workspace(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -116,7 +279,8 @@ Workspace::~Workspace() = default;
 
 System::~System() = default;
 
-System::System(model::ModelPtr model) : model_(std::move(model)), impl_(std::make_unique<Impl>()) {
+System::System(model::ModelPtr model, SystemOptions options)
+    : model_(std::move(model)), impl_(std::make_unique<Impl>()) {
   const model::Model& m = *model_;
   Impl& d = *impl_;
   SimTK::Force::Gravity(d.forces, d.matter, toSimTK(m.gravity));
@@ -177,7 +341,9 @@ System::System(model::ModelPtr model) : model_(std::move(model)), impl_(std::mak
           std::vector<const SimTK::Function*> functions;
           std::vector<std::vector<int>> coord_indices;
           std::vector<SimTK::Vec3> axes;
-          for (const model::TransformAxis& ax : jt.spatial) {
+          std::array<SpatialTransformMobilizer::Axis, 6> lean_axes;
+          for (int a = 0; a < 6; ++a) {
+            const model::TransformAxis& ax = jt.spatial[a];
             std::vector<int> local;
             for (int c : ax.coordinates) {
               auto it = std::find(jt.coordinates.begin(), jt.coordinates.end(), c);
@@ -190,9 +356,12 @@ System::System(model::ModelPtr model) : model_(std::move(model)), impl_(std::mak
               throw InputError(where, "transform axis function of type " + ax.function->getTypeName() + " takes " +
                                           std::to_string(ax.function->getArgumentSize()) + " arguments, got " +
                                           std::to_string(local.size()) + " coordinates");
+            if (ax.axis.norm() < 1e-12)
+              throw InputError(where, "transform axis " + std::to_string(a + 1) + ": expected a non-zero axis, got 0 0 0");
             functions.push_back(new ModelFunction(ax.function, int(local.size())));
             coord_indices.push_back(local);
             axes.push_back(toSimTK(ax.axis));
+            lean_axes[a] = {ax.function, local, SimTK::UnitVec3(toSimTK(ax.axis))};
           }
           if (nc == 0) {
             // A CustomJoint with no coordinates is a weld at its constant transform.
@@ -200,15 +369,23 @@ System::System(model::ModelPtr model) : model_(std::move(model)), impl_(std::mak
             SimTK::Rotation R = SimTK::Rotation(functions[0]->calcValue(none), SimTK::UnitVec3(axes[0])) *
                                 SimTK::Rotation(functions[1]->calcValue(none), SimTK::UnitVec3(axes[1])) *
                                 SimTK::Rotation(functions[2]->calcValue(none), SimTK::UnitVec3(axes[2]));
-            SimTK::Vec3 p = functions[3]->calcValue(none) * axes[3] + functions[4]->calcValue(none) * axes[4] +
-                            functions[5]->calcValue(none) * axes[5];
+            SimTK::Vec3 p = functions[3]->calcValue(none) * SimTK::UnitVec3(axes[3]) +
+                            functions[4]->calcValue(none) * SimTK::UnitVec3(axes[4]) +
+                            functions[5]->calcValue(none) * SimTK::UnitVec3(axes[5]);
             SimTK::Transform T(R, p);
             if (reversed) T = ~T;
             for (auto* f : functions) delete f;
             idx = SimTK::MobilizedBody::Weld(parent, X_PF * T, body, X_BM).getMobilizedBodyIndex();
-          } else {
+          } else if (options.simbody_function_based) {
             idx = SimTK::MobilizedBody::FunctionBased(parent, X_PF, body, X_BM, nc, functions, coord_indices, axes, dir)
                       .getMobilizedBodyIndex();
+          } else {
+            for (auto* f : functions) delete f;
+            const SimTK::MobilizedBodyIndex next(d.matter.getNumBodies());
+            idx = SimTK::MobilizedBody::Custom(parent, new SpatialTransformMobilizer(d.matter, next, nc, lean_axes),
+                                               X_PF, body, X_BM, dir)
+                      .getMobilizedBodyIndex();
+            KNEESIM_CHECK(idx == next, "Simbody numbered a new mobilized body unexpectedly");
           }
           break;
         }
@@ -256,16 +433,39 @@ System::System(model::ModelPtr model) : model_(std::move(model)), impl_(std::mak
     d.q_index[i] = int(mb.getFirstQIndex(d.default_state)) + c.index_in_joint;
     d.u_index[i] = int(mb.getFirstUIndex(d.default_state)) + c.index_in_joint;
   }
-  KNEESIM_CHECK(d.nq == int(m.coordinates.size()),
-                "Simbody has " + std::to_string(d.nq) + " q but the model has " +
+  // With Euler angles a Ball or Free mobilizer uses 3 of the 4 rotation q slots Simbody keeps
+  // for its quaternion, so State::getNQ() may exceed the coordinates; the q in use must not.
+  int nq_in_use = 0;
+  for (const model::Joint& jt : m.joints)
+    nq_in_use += d.matter.getMobilizedBody(d.mobod[jt.child_body]).getNumQ(d.default_state);
+  KNEESIM_CHECK(nq_in_use == int(m.coordinates.size()),
+                "Simbody uses " + std::to_string(nq_in_use) + " q but the model has " +
                     std::to_string(m.coordinates.size()) + " coordinates");
   for (size_t i = 0; i < m.coordinates.size(); ++i) d.default_state.updQ()[d.q_index[i]] = m.coordinates[i].default_value;
+  d.body_coords.assign(m.bodies.size(), {});
+  d.parent_body.assign(m.bodies.size(), -1);
+  for (size_t j = 0; j < m.joints.size(); ++j) {
+    const model::Joint& jt = m.joints[j];
+    d.body_coords[jt.child_body] = jt.coordinates;
+    d.parent_body[jt.child_body] = jt.parent_body;
+    const bool q_is_u = jt.type != JointType::Gimbal && jt.type != JointType::Ball && jt.type != JointType::Free;
+    if (!q_is_u)
+      for (int c : jt.coordinates) {
+        d.n_coords.push_back(c);
+        d.n_joint.push_back(int(j));
+      }
+  }
   d.system.realize(d.default_state, SimTK::Stage::Position);
 }
 
 std::unique_ptr<Workspace> System::createWorkspace() const {
   auto impl = std::make_unique<Workspace::Impl>();
   impl->state = impl_->default_state;
+  impl->H.assign(model_->coordinates.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  impl->p_GB.assign(model_->bodies.size(), Eigen::Vector3d::Zero());
+  impl->q_unit.resize(impl_->nq);
+  impl->u_out.resize(impl_->nu);
+  impl->NInv.setZero();
   impl_->system.realize(impl->state, SimTK::Stage::Position);
   return std::unique_ptr<Workspace>(new Workspace(std::move(impl)));
 }
@@ -295,45 +495,90 @@ Eigen::Vector3d System::findStationLocation(const Workspace& ws, int body, const
 
 void System::calcStationJacobian(Workspace& ws, const std::vector<int>& bodies,
                                  const std::vector<Eigen::Vector3d>& stations, Eigen::Ref<Eigen::MatrixXd> J) const {
+  // Column c of the Jacobian for a station S on a body at or below the body B that coordinate c
+  // moves is w x (p_S - p_B) + v, with (w, v) = H_c, the spatial velocity of B in ground for
+  // u_c = 1 (Simbody's hinge-matrix column, cached at Position stage). This costs O(stations x
+  // depth) small products instead of one Simbody sweep per row, and allocates nothing.
   Workspace::Impl& w = *ws.impl_;
+  const Impl& d = *impl_;
+  const model::Model& m = *model_;
   const int n = int(bodies.size());
   KNEESIM_CHECK(int(stations.size()) == n && J.rows() == 3 * n && J.cols() == getNumCoordinates(),
                 "station Jacobian sizes do not match");
-  if (int(w.bodies.size()) != n) {
-    w.bodies.resize(n);
-    w.stations.resize(n);
+  for (size_t c = 0; c < m.coordinates.size(); ++c) {
+    const model::Coordinate& co = m.coordinates[c];
+    const SimTK::SpatialVec H = d.matter.getMobilizedBody(d.mobod[m.joints[co.joint].child_body])
+                                    .getHCol(w.state, SimTK::MobilizerUIndex(co.index_in_joint));
+    w.H[c] << H[0][0], H[0][1], H[0][2], H[1][0], H[1][1], H[1][2];
   }
+  for (size_t b = 1; b < m.bodies.size(); ++b) {
+    const SimTK::Vec3& p = d.matter.getMobilizedBody(d.mobod[b]).getBodyOriginLocation(w.state);
+    w.p_GB[b] = Eigen::Vector3d(p[0], p[1], p[2]);
+  }
+  J.setZero();
   for (int i = 0; i < n; ++i) {
-    w.bodies[i] = impl_->mobod[bodies[i]];
-    w.stations[i] = toSimTK(stations[i]);
-  }
-  if (w.JS.nrow() != 3 * n || w.JS.ncol() != impl_->nu) w.JS.resize(3 * n, impl_->nu);
-  impl_->matter.calcStationJacobian(w.state, w.bodies, w.stations, w.JS);
-  const int nc = getNumCoordinates();
-  if (qdot_is_u_) {
-    for (int c = 0; c < nc; ++c) {
-      const int u = impl_->u_index[c];
-      for (int r = 0; r < 3 * n; ++r) J(r, c) = w.JS(r, u);
+    const Eigen::Vector3d p_S = findStationLocation(ws, bodies[i], stations[i]);
+    for (int a = bodies[i]; a > 0; a = d.parent_body[a]) {
+      const Eigen::Vector3d r = p_S - w.p_GB[a];
+      for (int c : d.body_coords[a]) J.block<3, 1>(3 * i, c) = w.H[c].head<3>().cross(r) + w.H[c].tail<3>();
     }
-    return;
   }
-  // dp/dq = dp/du * N^-1: each row r of JS times N^-1 is (N^-T r^T)^T.
-  if (w.row_in.size() != impl_->nu) w.row_in.resize(impl_->nu);
-  if (w.row_out.size() != impl_->nq) w.row_out.resize(impl_->nq);
-  for (int r = 0; r < 3 * n; ++r) {
-    for (int u = 0; u < impl_->nu; ++u) w.row_in[u] = w.JS(r, u);
-    impl_->matter.multiplyByNInv(w.state, true, w.row_in, w.row_out);
-    for (int c = 0; c < nc; ++c) J(r, c) = w.row_out[impl_->q_index[c]];
+  if (d.n_coords.empty()) return;
+  // Mobilizers with qdot = N u, N != I: dp/dq = dp/du N^-1, one joint's block at a time.
+  for (size_t k = 0; k < d.n_coords.size();) {
+    const int joint = d.n_joint[k];
+    size_t e = k;
+    while (e < d.n_coords.size() && d.n_joint[e] == joint) ++e;
+    const int nb = int(e - k);
+    for (int jj = 0; jj < nb; ++jj) {
+      w.q_unit = 0;
+      w.q_unit[d.q_index[d.n_coords[k + jj]]] = 1;
+      d.matter.multiplyByNInv(w.state, false, w.q_unit, w.u_out);
+      for (int ii = 0; ii < nb; ++ii) w.NInv(ii, jj) = w.u_out[d.u_index[d.n_coords[k + ii]]];
+    }
+    if (w.block.rows() != J.rows()) w.block.resize(J.rows(), 6);
+    for (int ii = 0; ii < nb; ++ii) w.block.col(ii) = J.col(d.n_coords[k + ii]);
+    for (int jj = 0; jj < nb; ++jj) {
+      J.col(d.n_coords[k + jj]).setZero();
+      for (int ii = 0; ii < nb; ++ii) J.col(d.n_coords[k + jj]) += w.NInv(ii, jj) * w.block.col(ii);
+    }
+    k = e;
   }
 }
 
 Eigen::VectorXd System::calcCouplerErrors(const Workspace& ws) const {
+  const model::Model& m = *model_;
   Eigen::VectorXd err(impl_->couplers.size());
   for (size_t i = 0; i < impl_->couplers.size(); ++i) {
-    const SimTK::Vector e = impl_->matter.getConstraint(impl_->couplers[i]).getPositionErrorsAsVector(ws.impl_->state);
-    err[i] = e.size() > 0 ? e[0] : 0.0;
+    const SimTK::Constraint& con = impl_->matter.getConstraint(impl_->couplers[i]);
+    if (!con.isDisabled(ws.impl_->state)) {
+      const SimTK::Vector e = con.getPositionErrorsAsVector(ws.impl_->state);
+      err[i] = e.size() > 0 ? e[0] : 0.0;
+      continue;
+    }
+    // Disabled in this workspace: Simbody keeps no error for it; evaluate the same residual.
+    const model::CoordinateCoupler& cc = m.couplers[i];
+    const SimTK::Vector& Q = ws.impl_->state.getQ();
+    double x[6];
+    for (size_t k = 0; k < cc.independents.size(); ++k) x[k] = Q[impl_->q_index[cc.independents[k]]];
+    err[i] = cc.scale_factor * cc.function->calcValue(x) - Q[impl_->q_index[cc.dependent]];
   }
   return err;
+}
+
+void System::setCouplersEnabled(Workspace& ws, bool enabled) const {
+  SimTK::State& s = ws.impl_->state;
+  bool changed = false;
+  for (SimTK::ConstraintIndex ci : impl_->couplers) {
+    const SimTK::Constraint& con = impl_->matter.getConstraint(ci);
+    if (con.isDisabled(s) == !enabled) continue;
+    if (enabled)
+      con.enable(s);
+    else
+      con.disable(s);
+    changed = true;
+  }
+  if (changed) impl_->system.realize(s, SimTK::Stage::Position);
 }
 
 }  // namespace kneesim::sim

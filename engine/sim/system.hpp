@@ -30,13 +30,22 @@ class Workspace {
   std::unique_ptr<Impl> impl_;
 };
 
-/// A Simbody MultibodySystem built from a model: FunctionBased mobilizers for CustomJoints, native
-/// mobilizers for the other joint types, Constraint::CoordinateCoupler for couplers.
+/// How a System is built.
+struct SystemOptions {
+  /// Build CustomJoints with Simbody's MobilizedBody::FunctionBased (as OpenSim does) instead of
+  /// kneesim's own Custom mobilizer with the same kinematics. FunctionBased allocates on every
+  /// evaluation and is about half as fast; it is kept to cross-check the two in tests.
+  bool simbody_function_based = false;
+};
+
+/// A Simbody MultibodySystem built from a model: a Custom mobilizer evaluating the model's
+/// functions for CustomJoints (the kinematics of Simbody's FunctionBased mobilizer, which OpenSim
+/// uses), native mobilizers for the other joint types, Constraint::CoordinateCoupler for couplers.
 class System {
  public:
   /// Builds the Simbody system. Throws InputError (naming the model file and joint) if Simbody
   /// rejects part of the model.
-  explicit System(model::ModelPtr model);
+  explicit System(model::ModelPtr model, SystemOptions options = {});
   ~System();
   System(const System&) = delete;
   System& operator=(const System&) = delete;
@@ -68,8 +77,14 @@ class System {
   void calcStationJacobian(Workspace& ws, const std::vector<int>& bodies,
                            const std::vector<Eigen::Vector3d>& stations, Eigen::Ref<Eigen::MatrixXd> J) const;
 
-  /// Position-level constraint errors of the couplers (Simbody's qErr), one per coupler.
+  /// Position-level errors of the couplers, scale * f(independents) - dependent, one per coupler
+  /// (Simbody's qErr; computed from the model's function for couplers disabled in @p ws).
   Eigen::VectorXd calcCouplerErrors(const Workspace& ws) const;
+
+  /// Enables or disables the couplers' Simbody constraints in @p ws (they are enabled in a new
+  /// workspace). Inverse kinematics eliminates couplers itself and disables them: Simbody would
+  /// otherwise evaluate their errors, allocating, at every realizePosition().
+  void setCouplersEnabled(Workspace& ws, bool enabled) const;
 
   /// Whether N (qdot = N u) is the identity for every mobilizer, so dq = du.
   bool isQDotEqualToU() const { return qdot_is_u_; }

@@ -5,8 +5,15 @@
 
 #include <cmath>
 
+#include <map>
+#include <random>
+#include <string>
+
 #include "core/error.hpp"
+#include "model/osim_reader.hpp"
+#include "model/urdf.hpp"
 #include "support/chain_model.hpp"
+#include "support/test_data.hpp"
 
 namespace kneesim::sim {
 namespace {
@@ -83,6 +90,213 @@ TEST(System, StationJacobianMatchesFiniteDifferences) {
       EXPECT_LT((J.block<3, 1>(3 * i, c) - (pp - pm) / (2 * h)).norm(), 1e-8) << "coordinate " << c << " station " << i;
     }
   }
+}
+
+// ------------------------------------------------------------------------------------------
+// The hand-written fixtures of tests/model/fixtures (README.md there derives every number by
+// hand) through the Simbody system: readers, builder, mobilizers and Simbody together.
+
+/// Coordinates of @p m at their defaults, overridden by @p values (by name).
+Eigen::VectorXd coordinates(const model::Model& m, const std::map<std::string, double>& values) {
+  Eigen::VectorXd q(m.coordinates.size());
+  for (size_t i = 0; i < m.coordinates.size(); ++i) q[i] = m.coordinates[i].default_value;
+  for (const auto& [name, v] : values) {
+    const int c = m.findCoordinate(name);
+    EXPECT_GE(c, 0) << name;
+    if (c >= 0) q[c] = v;
+  }
+  return q;
+}
+
+Vec3 markerPosition(const System& sys, const Workspace& ws, const std::string& name) {
+  const model::Model& m = sys.getModel();
+  const int k = m.findMarker(name);
+  EXPECT_GE(k, 0) << name;
+  return sys.findStationLocation(ws, m.markers[k].body, m.markers[k].p_BM);
+}
+
+TEST(System, Chain40000GivesHandDerivedMarkerPositions) {
+  System sys(model::readOsim(test::sourcePath("tests/model/fixtures/chain40000.osim")));
+  const model::Model& m = sys.getModel();
+  auto ws = sys.createWorkspace();
+  const double h = M_PI / 2, f = 0.24674011002723395;  // f = 0.1 (pi/2)^2, SIMM's 3-point spline
+  // Configuration Z: all zero but q_c_tz = 0.02, which the coupler asks for.
+  sys.realizePosition(*ws, coordinates(m, {{"q_c_tz", 0.02}}));
+  const std::map<std::string, Vec3> zero = {{"mA", {0, 1, 0.2}},   {"mA2", {-0.1, 0.9, 0.1}}, {"mB", {0.1, 0.9, 0}},
+                                            {"mC", {-0.3, 1, 0.1}}, {"mD", {-0.4, 1, 0.1}},   {"mE", {-0.4, 0.88, -0.1}}};
+  for (const auto& [name, p] : zero)
+    EXPECT_LT((markerPosition(sys, *ws, name) - p).norm(), 1e-9) << name << ": " << markerPosition(sys, *ws, name).transpose();
+  EXPECT_LT(std::abs(sys.calcCouplerErrors(*ws)[0]), 1e-15);
+  // Configuration P.
+  sys.realizePosition(*ws, coordinates(m, {{"q_pin", h}, {"q_slide", 0.3}, {"q_gx", h}, {"q_gy", M_PI}, {"q_gz", h},
+                                           {"q_ux", h}, {"q_uy", h}, {"q_c_rot", h}, {"q_c_tz", 0.32}}));
+  const std::map<std::string, Vec3> posed = {{"mA", {-0.2, 1, 0}},      {"mA2", {-0.1, 0.9, -0.1}},
+                                             {"mB", {-0.3, 0.9, 0.1}},  {"mC", {-0.4, 0.9, -0.2}},
+                                             {"mD", {-0.4, 0.9, -0.3}}, {"mE", {-0.1, 0.48, -0.2 - f}}};
+  for (const auto& [name, p] : posed)
+    EXPECT_LT((markerPosition(sys, *ws, name) - p).norm(), 1e-9) << name << ": " << markerPosition(sys, *ws, name).transpose();
+  // The coupler q_c_tz = 2 (0.5 q_slide + 0.01) holds at 0.32, and Simbody sees a violation otherwise.
+  EXPECT_LT(std::abs(sys.calcCouplerErrors(*ws)[0]), 1e-15);
+  sys.realizePosition(*ws, coordinates(m, {{"q_slide", 0.3}, {"q_c_tz", 0.30}}));
+  EXPECT_NEAR(sys.calcCouplerErrors(*ws)[0], 0.02, 1e-15);
+}
+
+TEST(System, Reverse30000GivesHandDerivedMarkerPositions) {
+  System sys(model::readOsim(test::sourcePath("tests/model/fixtures/reverse30000.osim")));
+  auto ws = sys.createWorkspace();
+  sys.realizePosition(*ws, coordinates(sys.getModel(), {{"q_rev", 0.0}}));
+  EXPECT_LT((markerPosition(sys, *ws, "mP") - Vec3(-0.2, 0.6, 0)).norm(), 1e-9);
+  EXPECT_LT((markerPosition(sys, *ws, "mQ") - Vec3(-0.3, 0.6, 0)).norm(), 1e-9);
+  sys.realizePosition(*ws, coordinates(sys.getModel(), {{"q_rev", M_PI / 2}}));
+  EXPECT_LT((markerPosition(sys, *ws, "mP") - Vec3(0.1, 0.7, 0)).norm(), 1e-9);
+  EXPECT_LT((markerPosition(sys, *ws, "mQ") - Vec3(0.1, 0.8, 0)).norm(), 1e-9);
+}
+
+TEST(System, UrdfChainGivesHandDerivedLinkPositions) {
+  System sys(model::readUrdf(test::sourcePath("tests/model/fixtures/chain.urdf")));
+  const model::Model& m = sys.getModel();
+  auto ws = sys.createWorkspace();
+  // Link origins and the point P4 = (0.1, 0, 0) of l4, configurations Z and P.
+  const std::map<std::string, std::pair<Vec3, Vec3>> links = {{"l1", {{0, 0, 0.5}, {0, 0, 0.5}}},
+                                                              {"l2", {{0, 0.2, 0.5}, {0.3, 0.2, 0.5}}},
+                                                              {"l3", {{0.1, 0.2, 0.5}, {0.3, 0.2, 0.4}}},
+                                                              {"l4", {{0, 0.2, 0.5}, {0.3, 0.2, 0.5}}}};
+  sys.realizePosition(*ws, coordinates(m, {}));
+  for (const auto& [name, p] : links)
+    EXPECT_LT((sys.findStationLocation(*ws, m.findBody(name), Vec3::Zero()) - p.first).norm(), 1e-9) << name;
+  EXPECT_LT((sys.findStationLocation(*ws, m.findBody("l4"), Vec3(0.1, 0, 0)) - Vec3(-0.1, 0.2, 0.5)).norm(), 1e-9);
+  sys.realizePosition(*ws, coordinates(m, {{"j_rev", M_PI / 2}, {"j_pri", 0.3}, {"j_cont", M_PI / 2}}));
+  for (const auto& [name, p] : links)
+    EXPECT_LT((sys.findStationLocation(*ws, m.findBody(name), Vec3::Zero()) - p.second).norm(), 1e-9) << name;
+  EXPECT_LT((sys.findStationLocation(*ws, m.findBody("l4"), Vec3(0.1, 0, 0)) - Vec3(0.4, 0.2, 0.5)).norm(), 1e-9);
+  // R_l4 = [1 0 0; 0 0 1; 0 -1 0] in configuration P.
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  EXPECT_LT((sys.getBodyPose(*ws, m.findBody("l4")).linear() - R).norm(), 1e-9);
+}
+
+// Station Jacobians against central differences, for every joint type, including those whose
+// q are Euler angles with qdot != u (Gimbal; Ball and Free with Simbody's Euler angles).
+void expectJacobianMatchesDifferences(const System& sys, const Eigen::VectorXd& q) {
+  const model::Model& m = sys.getModel();
+  auto ws = sys.createWorkspace();
+  std::vector<int> bodies;
+  std::vector<Vec3> stations;
+  for (size_t b = 1; b < m.bodies.size(); ++b) {
+    bodies.push_back(int(b));
+    stations.push_back(Vec3(0.05 * b, -0.1, 0.03));
+  }
+  Eigen::MatrixXd J(3 * bodies.size(), q.size());
+  sys.realizePosition(*ws, q);
+  sys.calcStationJacobian(*ws, bodies, stations, J);
+  const double h = 1e-6;
+  for (int c = 0; c < q.size(); ++c) {
+    Eigen::VectorXd qp = q, qm = q;
+    qp[c] += h;
+    qm[c] -= h;
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      sys.realizePosition(*ws, qp);
+      const Vec3 pp = sys.findStationLocation(*ws, bodies[i], stations[i]);
+      sys.realizePosition(*ws, qm);
+      const Vec3 pm = sys.findStationLocation(*ws, bodies[i], stations[i]);
+      EXPECT_LT((J.block<3, 1>(3 * i, c) - (pp - pm) / (2 * h)).norm(), 1e-8)
+          << "coordinate " << m.coordinates[c].name << ", body " << m.bodies[bodies[i]].name;
+    }
+  }
+}
+
+TEST(System, StationJacobianOfGimbalUniversalAndCustomJoints) {
+  System sys(model::readOsim(test::sourcePath("tests/model/fixtures/chain40000.osim")));
+  Eigen::VectorXd q(sys.getNumCoordinates());
+  q << 0.3, 0.1, 0.4, -0.7, 1.1, 0.2, -0.5, 0.8, 0.05;
+  expectJacobianMatchesDifferences(sys, q);
+}
+
+TEST(System, StationJacobianOfBallAndFreeJoints) {
+  // ground -Free-> A -Ball-> B, coordinates in OpenSim's order (rx ry rz [tx ty tz]).
+  auto m = std::make_shared<model::Model>();
+  m->bodies.resize(3);
+  const char* names[] = {"ground", "A", "B"};
+  for (int i = 0; i < 3; ++i) {
+    m->bodies[i].name = names[i];
+    m->bodies[i].mass = i ? 1.0 : 0.0;
+    m->bodies[i].inertia = model::Mat3::Identity() * (i ? 0.01 : 0.0);
+  }
+  auto joint = [&](const char* name, model::JointType type, int parent, int child, int n) {
+    model::Joint j;
+    j.name = name;
+    j.type = type;
+    j.parent_body = parent;
+    j.child_body = child;
+    j.X_PF = model::poseFromXYZ(Vec3(0.2, -0.1, 0.3), Vec3(0.1, 0.2, 0.0));
+    j.X_BM = model::poseFromXYZ(Vec3(-0.3, 0.0, 0.1), Vec3(0.0, -0.1, 0.05));
+    for (int k = 0; k < n; ++k) {
+      model::Coordinate c;
+      c.name = std::string(name) + std::to_string(k);
+      c.motion_type = k < 3 ? model::MotionType::Rotational : model::MotionType::Translational;
+      c.joint = int(m->joints.size());
+      m->coordinates.push_back(c);
+      j.coordinates.push_back(int(m->coordinates.size()) - 1);
+    }
+    m->joints.push_back(j);
+  };
+  joint("free", model::JointType::Free, 0, 1, 6);
+  joint("ball", model::JointType::Ball, 1, 2, 3);
+  m->finalize();
+  System sys(m);
+  EXPECT_FALSE(sys.isQDotEqualToU());
+  Eigen::VectorXd q(9);
+  q << 0.3, -0.4, 0.7, 0.1, 0.9, -0.2, -0.6, 0.5, 1.2;
+  expectJacobianMatchesDifferences(sys, q);
+}
+
+// kneesim's Custom mobilizer for CustomJoints against Simbody's FunctionBased mobilizer, which
+// OpenSim uses: the same marker positions and Jacobians on the models of OpenSim's IK tests
+// (SimmSpline-coupled knees, NaturalCubicSpline and PiecewiseLinear axes, reversed joints).
+void expectSameAsFunctionBased(const std::string& path, int samples) {
+  SCOPED_TRACE(path);
+  const model::ModelPtr m = model::readOsim(path);
+  System lean(m), reference(m, SystemOptions{true});
+  auto w1 = lean.createWorkspace(), w2 = reference.createWorkspace();
+  std::vector<int> bodies;
+  std::vector<Vec3> stations;
+  for (const auto& mk : m->markers) {
+    bodies.push_back(mk.body);
+    stations.push_back(mk.p_BM);
+  }
+  Eigen::MatrixXd J1(3 * bodies.size(), m->coordinates.size()), J2 = J1;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int s = 0; s < samples; ++s) {
+    Eigen::VectorXd q = lean.getDefaultCoordinates();
+    for (int c = 0; c < q.size(); ++c) q[c] += 0.5 * u(rng);
+    lean.realizePosition(*w1, q);
+    reference.realizePosition(*w2, q);
+    for (size_t i = 0; i < bodies.size(); ++i)
+      ASSERT_LT((lean.findStationLocation(*w1, bodies[i], stations[i]) -
+                 reference.findStationLocation(*w2, bodies[i], stations[i])).norm(), 1e-12)
+          << m->markers[i].name;
+    lean.calcStationJacobian(*w1, bodies, stations, J1);
+    reference.calcStationJacobian(*w2, bodies, stations, J2);
+    ASSERT_LT((J1 - J2).cwiseAbs().maxCoeff(), 1e-12);
+    const Eigen::VectorXd e1 = lean.calcCouplerErrors(*w1), e2 = reference.calcCouplerErrors(*w2);
+    ASSERT_EQ(e1.size(), Eigen::Index(m->couplers.size()));
+    if (e1.size() > 0) {
+      ASSERT_LT((e1 - e2).cwiseAbs().maxCoeff(), 1e-12);
+    }
+  }
+}
+
+TEST(System, CustomMobilizerMatchesSimbodyFunctionBasedOnFixtures) {
+  expectSameAsFunctionBased(test::sourcePath("tests/model/fixtures/chain40000.osim"), 20);
+  expectSameAsFunctionBased(test::sourcePath("tests/model/fixtures/reverse30000.osim"), 20);
+}
+
+TEST(System, CustomMobilizerMatchesSimbodyFunctionBasedOnOpenSimModels) {
+  KNEESIM_REQUIRE_DATA("opensim-ik-tests/subject01_simbody.osim");
+  expectSameAsFunctionBased(test::dataPath("opensim-ik-tests/subject01_simbody.osim"), 20);
+  expectSameAsFunctionBased(test::dataPath("opensim-ik-tests/constraintTest_ikOnly.osim"), 20);
+  expectSameAsFunctionBased(test::dataPath("kgc4-jw/model/jw_all_body_scaled.osim"), 20);
 }
 
 }  // namespace
