@@ -70,8 +70,24 @@ Solver::Solver(const sim::System& system, std::vector<MarkerTask> markers, std::
   z_trial_.setZero(nz);
   q_trial_.setZero(nq);
   ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(nz);
+  // Non-zero structure of E = dq/dz: a free coordinate depends on itself, a dependent one on the
+  // union of its independents' variables; locked coordinates on nothing.
+  e_cols_.assign(nq, {});
+  for (int k = 0; k < nz; ++k) {
+    e_cols_[free_[k]].push_back(k);
+    E_(free_[k], k) = 1.0;
+  }
+  for (int i : coupler_order_) {
+    const auto& cc = m.couplers[i];
+    std::vector<int>& cols = e_cols_[cc.dependent];
+    for (int ind : cc.independents) cols.insert(cols.end(), e_cols_[ind].begin(), e_cols_[ind].end());
+    std::sort(cols.begin(), cols.end());
+    cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
+  }
   active_.assign(nz, 0);
   marker_errors_.assign(nm, 0.0);
+  q_last_.setZero(nq);
+  q_before_.setZero(nq);
   model_markers_.assign(nm, Eigen::Vector3d::Zero());
 }
 
@@ -88,20 +104,55 @@ void Solver::applyConstraints(Eigen::VectorXd& q) const {
 }
 
 void Solver::buildExpansion(const Eigen::VectorXd& q) {
+  // Rows of E = dq/dz: free coordinates are unit rows (set once in the constructor); a dependent
+  // coordinate's row is the chain rule through its coupler, in dependency order. Only the
+  // structurally non-zero entries are touched.
   const model::Model& m = system_.getModel();
-  E_.setZero();
-  for (size_t k = 0; k < free_.size(); ++k) E_(free_[k], k) = 1.0;
   double x[6];
   int comp[1];
   for (int i : coupler_order_) {
     const auto& cc = m.couplers[i];
+    const int dep = cc.dependent;
+    for (int k : e_cols_[dep]) E_(dep, k) = 0.0;
     for (size_t k = 0; k < cc.independents.size(); ++k) x[k] = q[cc.independents[k]];
     for (size_t k = 0; k < cc.independents.size(); ++k) {
       comp[0] = int(k);
       const double d = cc.scale_factor * cc.function->calcDerivative(x, comp, 1);
-      E_.row(cc.dependent) += d * E_.row(cc.independents[k]);
+      const int ind = cc.independents[k];
+      for (int col : e_cols_[ind]) E_(dep, col) += d * E_(ind, col);
     }
   }
+}
+
+void Solver::calcResidualJacobian(sim::Workspace& ws, const Eigen::VectorXd& q) {
+  const int nm = int(marker_tasks_.size());
+  system_.calcStationJacobian(ws, bodies_, stations_, Jq_);
+  if (!coupler_order_.empty()) buildExpansion(q);
+  // J = diag(sqrt w) Jq E, accumulated column by column over E's non-zeros.
+  J_.setZero();
+  auto markers = J_.topRows(3 * nm);
+  for (int c = 0; c < int(e_cols_.size()); ++c)
+    for (int k : e_cols_[c]) markers.col(k).noalias() += E_(c, k) * Jq_.col(c);
+  for (int i = 0; i < nm; ++i)
+    if (weights_[i] != 1.0) J_.middleRows<3>(3 * i) *= std::sqrt(weights_[i]);
+  for (size_t j = 0; j < coord_tasks_.size(); ++j) {
+    const int c = coord_tasks_[j].coordinate;
+    const double sw = std::sqrt(coord_tasks_[j].weight);
+    for (int k : e_cols_[c]) J_(3 * nm + int(j), k) = sw * E_(c, k);
+  }
+}
+
+double Solver::calcMarkerMotion() const {
+  // Largest displacement of a tracked marker predicted by the linearisation for step_ (J_ rows
+  // carry sqrt(weight), so divide it out again).
+  const int nm = int(marker_tasks_.size());
+  double motion = 0;
+  for (int i = 0; i < nm; ++i) {
+    if (weights_[i] <= 0) continue;
+    const Eigen::Vector3d d = J_.middleRows<3>(3 * i) * step_;
+    motion = std::max(motion, d.norm() / std::sqrt(weights_[i]));
+  }
+  return motion;
 }
 
 double Solver::evaluate(sim::Workspace& ws, const Eigen::VectorXd& q, const std::vector<Eigen::Vector3d>& observed,
@@ -121,11 +172,26 @@ double Solver::evaluate(sim::Workspace& ws, const Eigen::VectorXd& q, const std:
   return r_.squaredNorm();
 }
 
+FrameResult Solver::trackFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
+                               const std::vector<double>& reference, Eigen::VectorXd& q) {
+  KNEESIM_CHECK(q.size() == q_last_.size(), "IK coordinate vector size");
+  if (tracked_ >= 2)
+    q = 2.0 * q_last_ - q_before_;
+  else if (tracked_ == 1)
+    q = q_last_;
+  const FrameResult r = solveFrame(ws, observed, reference, q);
+  q_before_ = q_last_;
+  q_last_ = q;
+  tracked_ = std::min(tracked_ + 1, 2);
+  return r;
+}
+
 FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
                                const std::vector<double>& reference, Eigen::VectorXd& q) {
   const int nm = int(marker_tasks_.size());
   const int nz = int(free_.size());
   KNEESIM_CHECK(int(observed.size()) == nm && reference.size() == coord_tasks_.size(), "IK input sizes");
+  KNEESIM_CHECK(q.size() == system_.getNumCoordinates(), "IK coordinate vector size");
   FrameResult res;
   for (int i = 0; i < nm; ++i) {
     const bool present = observed[i].allFinite();
@@ -138,40 +204,52 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   applyConstraints(q);
   double cost = evaluate(ws, q, observed, reference);
   double lambda = 1e-6;
+  double previous_step = kInf;
 
+  // Gauss-Newton with Levenberg-Marquardt damping. Stopping rules (SolverOptions): the frame is
+  // converged when the undamped step from the current point changes no coordinate by more than
+  // step_tolerance (rad or m) or moves no tracked marker by more than step_tolerance (m) -- the
+  // point is then that close to the minimum and the step is not taken --, when a step of a
+  // linearly converging sequence predicts the remaining distance below it, or when the cost
+  // stops decreasing. The marker test ends the slow tails of coordinates the markers barely
+  // see (e.g. forearm pronation with one wrist marker on a model that does not fit the data).
   for (int it = 0; it < options_.max_iterations && nz > 0; ++it) {
     res.iterations = it + 1;
-    system_.calcStationJacobian(ws, bodies_, stations_, Jq_);
-    buildExpansion(q);
-    J_.topRows(3 * nm).noalias() = Jq_ * E_;
-    for (int i = 0; i < nm; ++i) J_.middleRows<3>(3 * i) *= std::sqrt(weights_[i]);
-    for (size_t j = 0; j < coord_tasks_.size(); ++j)
-      J_.row(3 * nm + j) = std::sqrt(coord_tasks_[j].weight) * E_.row(coord_tasks_[j].coordinate);
+    calcResidualJacobian(ws, q);
     g_.noalias() = J_.transpose() * r_;
-    H_.noalias() = J_.transpose() * J_;
+    H_.setZero();
+    H_.selfadjointView<Eigen::Lower>().rankUpdate(J_.transpose());
     // Variables resting on a bound with the gradient pushing outwards stay there this step.
     for (int k = 0; k < nz; ++k)
       active_[k] = (z_[k] <= lower_[k] && g_[k] > 0) || (z_[k] >= upper_[k] && g_[k] < 0);
 
-    bool accepted = false;
-    double cost_trial = cost;
-    while (!accepted && lambda < 1e12) {
-      A_ = H_;
-      Eigen::MatrixXd& A = A_;
-      for (int k = 0; k < nz; ++k) A(k, k) += lambda * std::max(A(k, k), 1e-9);
+    bool accepted = false, done = false;
+    double cost_trial = cost, step_size = 0, marker_motion = 0;
+    while (!accepted) {
+      A_.triangularView<Eigen::Lower>() = H_;
+      for (int k = 0; k < nz; ++k) A_(k, k) += lambda * std::max(H_(k, k), 1e-9) + 1e-14;
       for (int k = 0; k < nz; ++k)
         if (active_[k]) {
-          A.row(k).setZero();
-          A.col(k).setZero();
-          A(k, k) = 1.0;
+          A_.row(k).setZero();
+          A_.col(k).setZero();
+          A_(k, k) = 1.0;
         }
-      ldlt_.compute(A);
+      ldlt_.compute(A_);
       step_ = -g_;
       for (int k = 0; k < nz; ++k)
         if (active_[k]) step_[k] = 0.0;
       ldlt_.solveInPlace(step_);
-
-      for (int k = 0; k < nz; ++k) z_trial_[k] = std::clamp(z_[k] + step_[k], lower_[k], upper_[k]);
+      step_size = 0;
+      for (int k = 0; k < nz; ++k) {
+        z_trial_[k] = std::clamp(z_[k] + step_[k], lower_[k], upper_[k]);
+        step_[k] = z_trial_[k] - z_[k];
+        step_size = std::max(step_size, std::abs(step_[k]));
+      }
+      marker_motion = calcMarkerMotion();
+      if (lambda <= 1e-3 && (step_size <= options_.step_tolerance || marker_motion <= options_.step_tolerance)) {
+        done = true;  // a (nearly) undamped step this small: we are at the minimum
+        break;
+      }
       q_trial_ = q;
       for (int k = 0; k < nz; ++k) q_trial_[free_[k]] = z_trial_[k];
       applyConstraints(q_trial_);
@@ -181,26 +259,35 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
         lambda = std::max(lambda / 5.0, 1e-12);
       } else {
         lambda *= 4.0;
+        if (lambda > 1e12) break;  // no descent possible: at the minimum to machine precision
       }
     }
-    if (!accepted) {  // no descent possible: we are at the minimum to machine precision
-      evaluate(ws, q, observed, reference);
+    if (done) {
       res.converged = true;
       break;
     }
-    const double max_step = (z_trial_ - z_).cwiseAbs().maxCoeff();
+    if (!accepted) {
+      evaluate(ws, q, observed, reference);  // the state still holds the last rejected trial
+      res.converged = true;
+      break;
+    }
     const double decrease = cost - cost_trial;
     z_ = z_trial_;
     q = q_trial_;
     cost = cost_trial;
-    if (max_step < options_.step_tolerance || decrease <= options_.cost_tolerance * std::max(cost, 1e-30)) {
+    // Remaining distance of a linearly converging sequence with ratio rate: step rate / (1 - rate).
+    const double rate = std::isfinite(previous_step) && previous_step > 0 ? step_size / previous_step : 1.0;
+    previous_step = step_size;
+    if (step_size <= options_.step_tolerance || marker_motion <= options_.step_tolerance ||
+        (rate < 1 && step_size * rate / (1 - rate) <= options_.step_tolerance) ||
+        decrease <= options_.cost_tolerance * std::max(cost, 1e-30)) {
       res.converged = true;
       break;
     }
   }
   if (nz == 0) res.converged = true;
 
-  // Unweighted marker errors at the solution.
+  // Unweighted marker errors at the solution (the state and model_markers_ hold it).
   for (int i = 0; i < nm; ++i) {
     if (observed[i].allFinite() && marker_tasks_[i].weight > 0) {
       const double e = (model_markers_[i] - observed[i]).norm();

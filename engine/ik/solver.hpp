@@ -27,8 +27,11 @@ struct CoordinateTask {
 /// Solver settings.
 struct SolverOptions {
   int max_iterations = 200;         ///< Per frame.
-  double step_tolerance = 1e-9;     ///< Converged when no coordinate moves more than this (rad or m).
-  double cost_tolerance = 1e-14;    ///< ... or the cost decreases by less than this fraction.
+  /// Converged when the next Gauss-Newton step would change no coordinate by more than this (rad
+  /// or m) or move no tracked marker by more than this (m). The IK tool sets it to the setup's
+  /// accuracy.
+  double step_tolerance = 1e-9;
+  double cost_tolerance = 1e-14;    ///< ... or when the cost decreases by less than this fraction.
 };
 
 /// What one frame's solve produced. Errors are unweighted distances in metres.
@@ -61,6 +64,15 @@ class Solver {
   FrameResult solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
                          const std::vector<double>& reference, Eigen::VectorXd& q);
 
+  /// Solves the next frame of a trial: solveFrame() warm-started from the linear extrapolation
+  /// q_last + (q_last - q_before) of the last two frames solved by trackFrame() (from q_last
+  /// after one frame; from @p q as given after construction or resetTracking()). Sampled motion
+  /// is smooth, so this start is usually within the convergence tolerance after one step.
+  FrameResult trackFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
+                         const std::vector<double>& reference, Eigen::VectorXd& q);
+  /// Forgets the frames trackFrame() remembers (call at a new trial or after a skipped frame).
+  void resetTracking() { tracked_ = 0; }
+
   /// Applies locks and couplers to @p q (dependent coordinates recomputed; locked ones reset).
   void applyConstraints(Eigen::VectorXd& q) const;
 
@@ -78,6 +90,8 @@ class Solver {
   double evaluate(sim::Workspace& ws, const Eigen::VectorXd& q, const std::vector<Eigen::Vector3d>& observed,
                   const std::vector<double>& reference);
   void buildExpansion(const Eigen::VectorXd& q);
+  void calcResidualJacobian(sim::Workspace& ws, const Eigen::VectorXd& q);
+  double calcMarkerMotion() const;
 
   const sim::System& system_;
   std::vector<MarkerTask> marker_tasks_;
@@ -95,6 +109,7 @@ class Solver {
   std::vector<double> weights_;       // per marker task, 0 when missing this frame
   Eigen::MatrixXd Jq_;                // 3m x nq
   Eigen::MatrixXd E_;                 // nq x nz  (dq/dz)
+  std::vector<std::vector<int>> e_cols_;  // per coordinate: columns of E that may be non-zero
   Eigen::MatrixXd J_;                 // (3m + nc) x nz residual Jacobian
   Eigen::VectorXd r_;                 // residuals
   Eigen::MatrixXd H_, A_;           // Gauss-Newton matrix and its damped copy
@@ -103,6 +118,8 @@ class Solver {
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   std::vector<char> active_;
   std::vector<double> marker_errors_;
+  Eigen::VectorXd q_last_, q_before_;  // trackFrame() history
+  int tracked_ = 0;
   std::vector<Eigen::Vector3d> model_markers_;
 };
 

@@ -1,14 +1,15 @@
 #include "ik/tool.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
-#include <map>
 #include <ostream>
 #include <set>
 #include <sstream>
 
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
@@ -20,6 +21,12 @@
 namespace kneesim::ik {
 
 namespace fs = std::filesystem;
+
+SourceLocation IkSetup::locate(const std::string& element) const {
+  auto it = locations.find(element);
+  if (it != locations.end()) return it->second;
+  return {setup_file, 0, element};
+}
 
 namespace {
 
@@ -45,6 +52,8 @@ void readTasks(const xml::Node& set, std::vector<TaskSpec>& out) {
       spec.kind = TaskSpec::Kind::Marker;
     else if (tag == "IKCoordinateTask")
       spec.kind = TaskSpec::Kind::Coordinate;
+    else if (tag == "groups")
+      continue;
     else
       t.fail("unknown task type <" + tag + "> (expected IKMarkerTask or IKCoordinateTask)");
     spec.name = t.nameAttr();
@@ -66,6 +75,7 @@ void readTasks(const xml::Node& set, std::vector<TaskSpec>& out) {
 }  // namespace
 
 std::vector<TaskSpec> readTaskFile(const std::string& path) {
+  if (!fs::exists(path)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
   auto doc = xml::Document::load(path);
   xml::Node root = doc->root();
   xml::Node set = root.name() == "IKTaskSet" ? root : root.child("IKTaskSet");
@@ -76,6 +86,7 @@ std::vector<TaskSpec> readTaskFile(const std::string& path) {
 }
 
 IkSetup readIkSetup(const std::string& path) {
+  if (!fs::exists(path)) throw InputError({path, 0, ""}, "setup file not found");
   auto doc = xml::Document::load(path);
   IkSetup s;
   s.setup_file = path;
@@ -90,17 +101,21 @@ IkSetup readIkSetup(const std::string& path) {
   }
   if (!tool) root.fail("no InverseKinematicsTool element (expected <OpenSimDocument><InverseKinematicsTool>)");
   s.name = tool.nameAttr();
+  s.locations["InverseKinematicsTool"] = tool.where();
 
   static const std::set<std::string> known = {
-      "model_file",  "constraint_weight",      "accuracy",          "IKTaskSet",     "marker_file",
-      "coordinate_file", "time_range",         "report_errors",     "output_motion_file",
-      "report_marker_locations", "results_directory", "input_directory", "max_iterations"};
-  for (const xml::Node& c : tool.children())
+      "model_file",      "constraint_weight", "accuracy",           "IKTaskSet",
+      "marker_file",     "coordinate_file",   "time_range",         "report_errors",
+      "output_motion_file", "report_marker_locations", "results_directory", "input_directory",
+      "max_iterations",  "marker_rotation"};
+  for (const xml::Node& c : tool.children()) {
     if (!known.count(c.name()))
       c.fail("unknown element <" + c.name() +
              "> in InverseKinematicsTool (expected one of model_file, marker_file, IKTaskSet, coordinate_file, "
              "time_range, accuracy, constraint_weight, output_motion_file, results_directory, report_errors, "
-             "report_marker_locations)");
+             "report_marker_locations, marker_rotation)");
+    s.locations[c.name()] = c.where();
+  }
 
   s.model_file = resolve(dir, tool.childText("model_file"));
   if (s.model_file.empty()) tool.fail("missing <model_file>");
@@ -115,11 +130,20 @@ IkSetup readIkSetup(const std::string& path) {
   if (results.empty() || results == "Unassigned") results = ".";
   s.results_directory = resolve(dir, results);
 
-  if (xml::Node cw = tool.child("constraint_weight"); cw && !cw.text().empty()) s.constraint_weight = cw.toDouble();
+  if (xml::Node cw = tool.child("constraint_weight"); cw && !cw.text().empty()) {
+    const std::string t = toLower(cw.text());
+    s.constraint_weight = (t == "inf" || t == "infinity") ? std::numeric_limits<double>::infinity() : cw.toDouble();
+    if (!(s.constraint_weight > 0)) cw.fail("expected constraint_weight > 0 or Infinity, got " + cw.text());
+  }
   s.accuracy = tool.childDouble("accuracy", 1e-5);
   if (!(s.accuracy > 0)) tool.child("accuracy").fail("expected accuracy > 0, got " + tool.childText("accuracy"));
-  s.solver.step_tolerance = std::min(1e-9, s.accuracy * 1e-3);
-  if (xml::Node mi = tool.child("max_iterations")) s.solver.max_iterations = int(mi.toInt());
+  // OpenSim hands accuracy to its optimizer as the convergence tolerance; here a frame is
+  // converged when the remaining Gauss-Newton step is below it (rad or m, or m of marker motion).
+  s.solver.step_tolerance = s.accuracy;
+  if (xml::Node mi = tool.child("max_iterations")) {
+    s.solver.max_iterations = int(mi.toInt());
+    if (s.solver.max_iterations < 1) mi.fail("expected max_iterations >= 1, got " + mi.text());
+  }
   if (xml::Node tr = tool.child("time_range"); tr && !tr.text().empty()) {
     const auto v = tr.toDoubles();
     if (v.size() != 2) tr.fail("expected 2 numbers (start end), got " + std::to_string(v.size()));
@@ -127,6 +151,7 @@ IkSetup readIkSetup(const std::string& path) {
     s.time_start = v[0];
     s.time_end = v[1];
   }
+  if (xml::Node mr = tool.child("marker_rotation"); mr && !mr.text().empty()) s.marker_rotation_deg = mr.toVec3();
   s.report_errors = tool.childBool("report_errors", true);
   s.report_marker_locations = tool.childBool("report_marker_locations", false);
 
@@ -144,81 +169,194 @@ IkSetup readIkSetup(const std::string& path) {
 
 namespace {
 
-model::ModelPtr loadModel(const std::string& path, const SourceLocation& where) {
-  if (!fs::exists(path)) throw InputError(where, "model file not found: " + path);
-  const std::string low = toLower(path);
-  if (endsWith(low, ".urdf")) return model::readUrdf(path);
-  return model::readOsim(path);
+model::ModelPtr loadModel(const IkSetup& setup) {
+  if (!fs::exists(setup.model_file))
+    throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
+  const std::string low = toLower(setup.model_file);
+  if (endsWith(low, ".urdf")) return model::readUrdf(setup.model_file);
+  return model::readOsim(setup.model_file);
+}
+
+/// A marker name without the separators people use differently ('.', '_', '-', ' ') and
+/// without a Vicon subject prefix ("JW:").
+std::string looseName(const std::string& name) {
+  const size_t colon = name.rfind(':');
+  std::string out;
+  for (size_t i = colon == std::string::npos ? 0 : colon + 1; i < name.size(); ++i) {
+    const char c = name[i];
+    if (c != '.' && c != '_' && c != '-' && c != ' ') out += c;
+  }
+  return out;
+}
+
+/// Matches model marker names to marker-file columns: exact (or with a subject prefix) first for
+/// all names, then ignoring separators among the columns nobody claimed exactly.
+class MarkerMatcher {
+ public:
+  explicit MarkerMatcher(const io::MarkerTable& table) : table_(table), claimed_(table.labels.size(), 0) {}
+
+  /// Exact pass; returns the column or -1.
+  int matchExact(const std::string& name) {
+    const int col = table_.findMarker(name);
+    if (col >= 0) claimed_[col] = 1;
+    return col;
+  }
+  /// Separator-insensitive pass; -1 if none. Throws InputError when two columns match.
+  int matchLoose(const std::string& name, const SourceLocation& where) {
+    const std::string key = looseName(name);
+    int found = -1;
+    for (size_t c = 0; c < table_.labels.size(); ++c) {
+      if (claimed_[c] || looseName(table_.labels[c]) != key) continue;
+      if (found >= 0)
+        throw InputError(where, "marker '" + name + "' matches both '" + table_.labels[found] + "' and '" +
+                                    table_.labels[c] + "' of " + table_.source_file +
+                                    " when separators are ignored (expected one; rename one of them)");
+      found = int(c);
+    }
+    if (found >= 0) claimed_[found] = 1;
+    return found;
+  }
+
+ private:
+  const io::MarkerTable& table_;
+  std::vector<char> claimed_;
+};
+
+std::string formatSeconds(double t) {
+  std::ostringstream os;
+  os << t;
+  return os.str();
+}
+
+/// Model warnings for the run: unresolved meshes (IK does not need them) are summarised in one
+/// line instead of one per file.
+void addModelWarnings(const model::Model& m, std::vector<std::string>& out) {
+  std::vector<std::string> missing;
+  for (const model::Body& b : m.bodies)
+    for (const model::MeshRef& mesh : b.meshes)
+      if (mesh.resolved_path.empty()) missing.push_back(mesh.file);
+  for (const std::string& w : m.warnings)
+    if (missing.empty() || w.find("mesh file '") == std::string::npos) out.push_back(w);
+  if (!missing.empty()) {
+    std::string list;
+    for (size_t i = 0; i < missing.size() && i < 3; ++i) list += (i ? ", " : "") + missing[i];
+    if (missing.size() > 3) list += ", ...";
+    out.push_back(m.source_file + ": " + std::to_string(missing.size()) + " mesh file" +
+                  (missing.size() > 1 ? "s" : "") + " not found (" + list +
+                  "); inverse kinematics does not need them");
+  }
 }
 
 }  // namespace
 
 IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
   IkReport report;
-  const SourceLocation at_setup{setup.setup_file, 0, ""};
-  model::ModelPtr model = loadModel(setup.model_file, {setup.setup_file, 0, "model_file"});
+  model::ModelPtr model = loadModel(setup);
   const model::Model& m = *model;
+  addModelWarnings(m, report.warnings);
   sim::System system(model);
   for (const auto& w : system.getWarnings()) report.warnings.push_back(w);
+  if (!m.couplers.empty() && std::isfinite(setup.constraint_weight)) {
+    std::ostringstream os;
+    os << "constraint_weight " << setup.constraint_weight << " is not used: kneesim enforces the "
+       << m.couplers.size() << " coordinate coupler" << (m.couplers.size() > 1 ? "s" : "")
+       << " exactly, as OpenSim does with constraint_weight = Infinity";
+    report.warnings.push_back(os.str());
+  }
 
   if (!fs::exists(setup.marker_file))
-    throw InputError({setup.setup_file, 0, "marker_file"}, "marker file not found: " + setup.marker_file);
-  const io::MarkerTable markers = io::readMarkerFile(setup.marker_file);
+    throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
+  io::MarkerTable markers = io::readMarkerFile(setup.marker_file);
+  if (!setup.marker_rotation_deg.isZero()) {
+    const Eigen::Matrix3d R = model::poseFromXYZ(setup.marker_rotation_deg * (M_PI / 180.0), Eigen::Vector3d::Zero()).linear();
+    for (Eigen::Vector3d& p : markers.positions)
+      if (p.allFinite()) p = R * p;
+  }
 
-  // Tasks -> model indices. A task naming something the model lacks is an error: the user
-  // asked for it, and silently dropping it changes the answer.
-  std::vector<MarkerTask> marker_tasks;
-  std::vector<int> marker_columns;
-  std::vector<std::string> marker_names;
+  // Tasks -> model markers and data columns. A task naming something the model lacks is an
+  // error: the user asked for it, and silently dropping it changes the answer.
+  struct Tracked {
+    int marker;
+    double weight;
+    const TaskSpec* spec;
+    int column = -1;
+  };
+  std::vector<Tracked> tracked;
   std::vector<CoordinateTask> coord_tasks;
   std::vector<const TaskSpec*> coord_specs;
-  std::set<std::string> tasked;
   for (const TaskSpec& t : setup.tasks) {
     if (t.kind == TaskSpec::Kind::Marker) {
       const int mi = m.findMarker(t.name);
-      if (mi < 0) throw InputError(t.where, "task names marker '" + t.name + "' which the model (" + setup.model_file + ") does not have");
-      tasked.insert(t.name);
+      if (mi < 0)
+        throw InputError(t.where, "task names marker '" + t.name + "' which the model (" + setup.model_file +
+                                      ") does not have");
       if (!t.apply || t.weight == 0) continue;
-      const int col = markers.findMarker(t.name);
-      if (col < 0) {
-        report.warnings.push_back("marker '" + t.name + "' is in the task set but not in " + setup.marker_file + "; ignored");
-        continue;
-      }
-      marker_tasks.push_back({mi, t.weight});
-      marker_columns.push_back(col);
-      marker_names.push_back(t.name);
+      tracked.push_back({mi, t.weight, &t});
     } else {
       const int ci = m.findCoordinate(t.name);
-      if (ci < 0) throw InputError(t.where, "task names coordinate '" + t.name + "' which the model does not have");
+      if (ci < 0)
+        throw InputError(t.where, "task names coordinate '" + t.name + "' which the model (" + setup.model_file +
+                                      ") does not have");
       if (!t.apply || t.weight == 0) continue;
       coord_tasks.push_back({ci, t.weight});
       coord_specs.push_back(&t);
     }
   }
-  if (setup.tasks.empty()) {
-    // OpenSim with no task set: every model marker found in the data, weight 1.
-    for (size_t i = 0; i < m.markers.size(); ++i) {
-      const int col = markers.findMarker(m.markers[i].name);
-      if (col < 0) continue;
-      marker_tasks.push_back({int(i), 1.0});
-      marker_columns.push_back(col);
-      marker_names.push_back(m.markers[i].name);
+  const bool all_markers = setup.tasks.empty();
+  if (all_markers)  // OpenSim with no task set: every model marker found in the data, weight 1
+    for (size_t i = 0; i < m.markers.size(); ++i) tracked.push_back({int(i), 1.0, nullptr});
+  MarkerMatcher matcher(markers);
+  for (Tracked& t : tracked) t.column = matcher.matchExact(m.markers[t.marker].name);
+  for (Tracked& t : tracked)
+    if (t.column < 0) {
+      t.column = matcher.matchLoose(m.markers[t.marker].name, t.spec ? t.spec->where : setup.locate("IKTaskSet"));
+      if (t.column >= 0) ++report.loose_name_matches;
     }
+  std::vector<MarkerTask> marker_tasks;
+  std::vector<int> marker_columns;
+  std::vector<std::string> marker_names;
+  std::vector<std::string> not_in_data;
+  for (const Tracked& t : tracked) {
+    if (t.column < 0) {
+      if (!all_markers) not_in_data.push_back(m.markers[t.marker].name);
+      continue;
+    }
+    marker_tasks.push_back({t.marker, t.weight});
+    marker_columns.push_back(t.column);
+    marker_names.push_back(m.markers[t.marker].name);
+  }
+  if (!not_in_data.empty()) {
+    std::string list;
+    for (const auto& n : not_in_data) list += (list.empty() ? "" : ", ") + n;
+    report.warnings.push_back(std::to_string(not_in_data.size()) + " task marker" +
+                              (not_in_data.size() > 1 ? "s are" : " is") + " not in " + setup.marker_file +
+                              " and not tracked: " + list);
   }
   if (marker_tasks.empty())
-    throw InputError(at_setup, "no marker task matches a marker of " + setup.marker_file +
-                                   " (expected IKMarkerTask names that are both model and data markers)");
+    throw InputError(setup.locate(all_markers ? "marker_file" : "IKTaskSet"),
+                     "no tracked marker of the model is in " + setup.marker_file +
+                         " (expected marker names shared by the model and the marker file)");
 
   // Coordinate references from a file, interpolated at marker frame times.
   io::Storage coord_file;
+  std::vector<int> coord_columns(coord_tasks.size(), -1);
   bool need_file = false;
   for (const TaskSpec* t : coord_specs) need_file = need_file || t->value_type == "from_file";
   if (need_file) {
     if (setup.coordinate_file.empty())
-      throw InputError({setup.setup_file, 0, "coordinate_file"}, "a coordinate task uses from_file but no coordinate_file is given");
+      throw InputError(setup.locate("coordinate_file"), "a coordinate task uses from_file but no coordinate_file is given");
     if (!fs::exists(setup.coordinate_file))
-      throw InputError({setup.setup_file, 0, "coordinate_file"}, "coordinate file not found: " + setup.coordinate_file);
+      throw InputError(setup.locate("coordinate_file"), "coordinate file not found: " + setup.coordinate_file);
     coord_file = io::readStorage(setup.coordinate_file);
+    if (coord_file.getNumRows() == 0)
+      throw InputError({setup.coordinate_file, 0, ""}, "expected at least one row of coordinate values, got none");
+    for (size_t j = 0; j < coord_tasks.size(); ++j) {
+      if (coord_specs[j]->value_type != "from_file") continue;
+      const std::string& name = m.coordinates[coord_tasks[j].coordinate].name;
+      coord_columns[j] = coord_file.findColumn(name);
+      if (coord_columns[j] < 0)
+        throw InputError(coord_specs[j]->where, "coordinate '" + name + "' is not a column of " + setup.coordinate_file);
+    }
   }
 
   // Frames in the time range.
@@ -228,15 +366,16 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
     if (markers.time[f] >= setup.time_start - eps && markers.time[f] <= setup.time_end + eps) frames.push_back(f);
   if (frames.empty()) {
     std::ostringstream os;
-    os << "time range " << setup.time_start << " to " << setup.time_end << " s lies outside the marker data ("
-       << (markers.time.empty() ? 0.0 : markers.time.front()) << " to "
-       << (markers.time.empty() ? 0.0 : markers.time.back()) << " s)";
-    throw InputError({setup.setup_file, 0, "time_range"}, os.str());
+    os << "expected a time range overlapping the marker data (" << (markers.time.empty() ? 0.0 : markers.time.front())
+       << " to " << (markers.time.empty() ? 0.0 : markers.time.back()) << " s in " << setup.marker_file << "), got "
+       << setup.time_start << " to " << setup.time_end << " s";
+    throw InputError(setup.locate("time_range"), os.str());
   }
   report.frames_total = int(frames.size());
 
   Solver solver(system, marker_tasks, coord_tasks, setup.solver);
   auto ws = system.createWorkspace();
+  system.setCouplersEnabled(*ws, false);  // the solver eliminates couplers itself
   Eigen::VectorXd q = system.getDefaultCoordinates();
   std::vector<Eigen::Vector3d> observed(marker_tasks.size());
   std::vector<double> reference(coord_tasks.size());
@@ -247,6 +386,7 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
   std::vector<std::vector<double>> marker_errors;
   std::vector<std::vector<Eigen::Vector3d>> marker_locations;
   solutions.reserve(frames.size());
+  marker_errors.reserve(frames.size());
 
   const auto t0 = std::chrono::steady_clock::now();
   for (size_t k = 0; k < frames.size(); ++k) {
@@ -258,9 +398,9 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       present += observed[i].allFinite() ? 1 : 0;
     }
     if (present == 0) {
-      std::ostringstream os;
-      os << "frame " << markers.frame_numbers[f] << " (t = " << t << " s): every tracked marker is missing; frame skipped";
-      report.warnings.push_back(os.str());
+      report.warnings.push_back("frame " + std::to_string(markers.frame_numbers[f]) + " (t = " + formatSeconds(t) +
+                                " s) of " + setup.marker_file + ": every tracked marker is missing; frame skipped");
+      solver.resetTracking();  // do not extrapolate across the gap
       continue;
     }
     for (size_t j = 0; j < coord_tasks.size(); ++j) {
@@ -271,17 +411,15 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       } else if (spec.value_type == "manual_value") {
         reference[j] = spec.value;
       } else {
-        const int col = coord_file.findColumn(c.name);
-        if (col < 0)
-          throw InputError(spec.where, "coordinate '" + c.name + "' is not a column of " + setup.coordinate_file);
-        const Eigen::VectorXd times = coord_file.data.col(0);
-        const Eigen::VectorXd vals = coord_file.data.col(col);
-        // Linear interpolation, clamped at the ends.
+        // Linear interpolation, held constant beyond the ends.
+        const auto times = coord_file.data.col(0);
+        const auto vals = coord_file.data.col(coord_columns[j]);
+        const Eigen::Index n = times.size();
         double v = vals[0];
-        if (t >= times[times.size() - 1]) {
-          v = vals[vals.size() - 1];
+        if (t >= times[n - 1]) {
+          v = vals[n - 1];
         } else if (t > times[0]) {
-          int hi = 1;
+          Eigen::Index hi = 1;
           while (times[hi] < t) ++hi;
           const double a = (t - times[hi - 1]) / (times[hi] - times[hi - 1]);
           v = (1 - a) * vals[hi - 1] + a * vals[hi];
@@ -290,7 +428,8 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
         reference[j] = v;
       }
     }
-    const FrameResult r = solver.solveFrame(*ws, observed, reference, q);
+    const FrameResult r = solver.trackFrame(*ws, observed, reference, q);
+    report.iterations += r.iterations;
     report.time.push_back(t);
     report.frames.push_back(r);
     report.worst_marker.push_back(r.worst_marker >= 0 ? marker_names[r.worst_marker] : "");
@@ -301,12 +440,15 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
   }
   report.seconds_solving = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   report.frames_solved = int(solutions.size());
-  if (solutions.empty()) throw InputError({setup.marker_file, 0, ""}, "no frame could be solved: every tracked marker is missing in every frame");
+  if (solutions.empty())
+    throw InputError({setup.marker_file, 0, ""}, "expected at least one frame with a tracked marker in the time range, "
+                                                 "got every tracked marker missing in every frame");
 
   // Per-marker summary.
   for (int i = 0; i < nm; ++i) {
     MarkerErrorSummary s;
     s.name = marker_names[i];
+    s.data_label = markers.labels[marker_columns[i]];
     double sum = 0, sum2 = 0;
     for (const auto& e : marker_errors)
       if (std::isfinite(e[i])) {
@@ -326,8 +468,9 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
     report.max_error = std::max(report.max_error, r.max_error);
   }
 
-  // Outputs, all prepared before any is written.
+  // Outputs: all prepared, then committed together.
   const double deg = 180.0 / M_PI;
+  AtomicFileSet outputs;
   io::Storage motion;
   motion.name = setup.name.empty() ? "ik" : setup.name;
   motion.in_degrees = true;
@@ -340,10 +483,10 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       motion.data(k, c + 1) =
           solutions[k][c] * (m.coordinates[c].motion_type == model::MotionType::Rotational ? deg : 1.0);
   }
-  io::writeStorage(setup.output_motion_file, motion);
-  report.outputs.push_back(setup.output_motion_file);
+  outputs.addContents(setup.output_motion_file, io::formatStorage(motion));
 
-  const std::string prefix = (fs::path(setup.results_directory) / (motion.name + "_ik_")).string();
+  const std::string prefix =
+      (fs::path(setup.results_directory) / ((setup.name.empty() ? std::string() : setup.name + "_") + "ik_")).string();
   if (setup.report_errors) {
     io::Storage err;
     err.name = motion.name + " marker errors";
@@ -353,8 +496,7 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       const auto& r = report.frames[k];
       err.data.row(k) << report.time[k], r.total_squared_error, r.rms_error, r.max_error, double(r.markers_used);
     }
-    io::writeStorage(prefix + "marker_errors.sto", err);
-    report.outputs.push_back(prefix + "marker_errors.sto");
+    outputs.addContents(prefix + "marker_errors.sto", io::formatStorage(err));
 
     // Per-marker error table (m), NaN where the marker was missing (opensim-core#2748).
     io::Storage table;
@@ -366,8 +508,14 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       table.data(k, 0) = report.time[k];
       for (int i = 0; i < nm; ++i) table.data(k, i + 1) = marker_errors[k][i];
     }
-    io::writeStorage(prefix + "marker_error_table.sto", table);
-    report.outputs.push_back(prefix + "marker_error_table.sto");
+    outputs.addContents(prefix + "marker_error_table.sto", io::formatStorage(table));
+
+    std::ostringstream csv;
+    csv << "marker,data_label,frames,mean_mm,rms_mm,max_mm\n" << std::setprecision(6);
+    for (const auto& s : report.markers)
+      csv << s.name << ',' << s.data_label << ',' << s.frames << ',' << s.mean * 1e3 << ',' << s.rms * 1e3 << ','
+          << s.max * 1e3 << '\n';
+    outputs.addContents(prefix + "marker_error_summary.csv", csv.str());
   }
   if (setup.report_marker_locations) {
     io::Storage loc;
@@ -380,27 +528,49 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       loc.data(k, 0) = report.time[k];
       for (int i = 0; i < nm; ++i) loc.data.block<1, 3>(k, 1 + 3 * i) = marker_locations[k][i].transpose();
     }
-    io::writeStorage(prefix + "model_marker_locations.sto", loc);
-    report.outputs.push_back(prefix + "model_marker_locations.sto");
+    outputs.addContents(prefix + "model_marker_locations.sto", io::formatStorage(loc));
   }
+  outputs.commit();
+  report.outputs = outputs.getPaths();
   return report;
 }
 
 void printIkSummary(const IkReport& report, std::ostream& os) {
+  const auto flags = os.flags();
+  const auto precision = os.precision();
   os << std::fixed << std::setprecision(2);
   os << "IK: " << report.frames_solved << " of " << report.frames_total << " frames solved in "
      << report.seconds_solving * 1e3 << " ms ("
-     << (report.frames_solved > 0 ? report.seconds_solving * 1e6 / report.frames_solved : 0.0) << " us/frame)\n";
-  os << "marker RMS error: mean " << report.mean_rms * 1e3 << " mm, max marker error " << report.max_error * 1e3
-     << " mm\n";
-  os << "per-marker error (mm):\n  " << std::left << std::setw(24) << "marker" << std::right << std::setw(8)
-     << "frames" << std::setw(9) << "mean" << std::setw(9) << "rms" << std::setw(9) << "max" << "\n";
+     << (report.frames_solved > 0 ? report.seconds_solving * 1e6 / report.frames_solved : 0.0) << " us/frame, "
+     << (report.frames_solved > 0 ? double(report.iterations) / report.frames_solved : 0.0) << " iterations/frame)\n";
+  os << "marker error: mean RMS " << report.mean_rms * 1e3 << " mm, max " << report.max_error * 1e3 << " mm\n";
+  if (report.loose_name_matches > 0)
+    os << report.loose_name_matches << " marker names matched ignoring '.', '_', '-' and ' ' (see data label)\n";
+  os << "per-marker error (mm):\n  " << std::left << std::setw(22) << "marker" << std::setw(20) << "data label"
+     << std::right << std::setw(7) << "frames" << std::setw(9) << "mean" << std::setw(9) << "rms" << std::setw(9)
+     << "max" << "\n";
   for (const auto& s : report.markers)
-    os << "  " << std::left << std::setw(24) << s.name << std::right << std::setw(8) << s.frames << std::setw(9)
-       << s.mean * 1e3 << std::setw(9) << s.rms * 1e3 << std::setw(9) << s.max * 1e3 << "\n";
+    os << "  " << std::left << std::setw(22) << s.name << std::setw(20) << s.data_label << std::right << std::setw(7)
+       << s.frames << std::setw(9) << s.mean * 1e3 << std::setw(9) << s.rms * 1e3 << std::setw(9) << s.max * 1e3
+       << "\n";
+  // The three worst frames by RMS.
+  std::vector<size_t> order(report.frames.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return report.frames[a].rms_error > report.frames[b].rms_error; });
+  if (!order.empty()) {
+    os << "worst frames (RMS, max, worst marker):\n";
+    for (size_t k = 0; k < order.size() && k < 3; ++k) {
+      const size_t i = order[k];
+      os << "  t = " << std::setprecision(4) << report.time[i] << " s: " << std::setprecision(2)
+         << report.frames[i].rms_error * 1e3 << " mm, " << report.frames[i].max_error * 1e3 << " mm, "
+         << report.worst_marker[i] << "\n";
+    }
+  }
   for (const auto& w : report.warnings) os << "warning: " << w << "\n";
   for (const auto& o : report.outputs) os << "wrote " << o << "\n";
-  os.unsetf(std::ios::floatfield);
+  os.flags(flags);
+  os.precision(precision);
 }
 
 }  // namespace kneesim::ik

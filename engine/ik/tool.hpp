@@ -1,10 +1,29 @@
 #pragma once
 // OpenSim's InverseKinematicsTool: read its setup XML, run IK over a marker file, write results.
+//
+// Differences from OpenSim, on purpose:
+// - Coordinate couplers are always enforced exactly (eliminated: the dependent coordinate is
+//   computed from its independents), as OpenSim does with constraint_weight = Infinity. A finite
+//   constraint_weight, which OpenSim turns into a penalty on the coupler errors, is not used;
+//   the run says so in a warning when the model has couplers.
+// - accuracy is the convergence tolerance of each frame: a frame is solved when the next
+//   Gauss-Newton step would change no coordinate by more than accuracy (rad or m), or would move
+//   no tracked marker by more than accuracy (m).
+// - Marker names are matched exactly, then with a Vicon subject prefix ("JW:RAsis"), then
+//   ignoring the separators '.', '_', '-' and ' ' ("R.Thigh.Superior" finds "RThighSuperior").
+// - <marker_rotation> (kneesim's addition) rotates the marker data into the model's ground, e.g.
+//   "-90 0 0" for a Z-up laboratory and a Y-up OpenSim model.
+// - Every output of a run is written after all frames are solved, and all appear together or
+//   not at all.
 
 #include <functional>
 #include <limits>
+#include <map>
+#include <ostream>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/error.hpp"
 #include "ik/solver.hpp"
@@ -41,6 +60,14 @@ struct IkSetup {
   bool report_errors = true;
   bool report_marker_locations = false;
   SolverOptions solver;
+  /// Rotation applied to the marker data before IK, as body-fixed X-Y-Z angles in degrees
+  /// (kneesim's <marker_rotation>): p_model_ground = R p_file.
+  Eigen::Vector3d marker_rotation_deg = Eigen::Vector3d::Zero();
+  /// Where each element was found in the setup file (element name -> location), for errors.
+  std::map<std::string, SourceLocation> locations;
+
+  /// The location of element @p element of the setup file (its line if it was read from one).
+  SourceLocation locate(const std::string& element) const;
 };
 
 /// Reads an InverseKinematicsTool setup file (also OpenSim's misspelled root tags, an IKTaskSet
@@ -52,7 +79,8 @@ std::vector<TaskSpec> readTaskFile(const std::string& path);
 
 /// Per-marker error summary over a run (metres).
 struct MarkerErrorSummary {
-  std::string name;
+  std::string name;        ///< Model marker name.
+  std::string data_label;  ///< The marker-file label it was matched with.
   int frames = 0;          ///< Frames in which the marker was present and used.
   double mean = 0, rms = 0, max = 0;
 };
@@ -69,6 +97,8 @@ struct IkReport {
   std::vector<std::string> outputs;    ///< Files written.
   double mean_rms = 0, max_error = 0;
   double seconds_solving = 0;
+  int iterations = 0;                  ///< Gauss-Newton iterations over all frames.
+  int loose_name_matches = 0;          ///< Markers matched ignoring separators.
 };
 
 /// Options for running.
@@ -78,8 +108,11 @@ struct IkRunOptions {
 };
 
 /// Runs IK as the setup describes and writes the motion (degrees for rotational coordinates, as
-/// OpenSim does) and, if asked, the marker-error and marker-location reports. Every output is
-/// written atomically after all frames are solved, so a failed run leaves no partial files.
+/// OpenSim does) and, if asked, the marker-error reports (<name>_ik_marker_errors.sto per frame,
+/// <name>_ik_marker_error_table.sto per frame and marker, <name>_ik_marker_error_summary.csv
+/// per marker) and the model marker locations. Every output is written after all frames are
+/// solved, and all of them commit together: a failed run leaves none. Throws InputError naming
+/// the file and element for bad input.
 IkReport runIk(const IkSetup& setup, const IkRunOptions& options = {});
 
 /// Writes a readable summary of @p report (per-marker table, worst frames) to @p os.
