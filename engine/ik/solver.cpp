@@ -143,8 +143,8 @@ void Solver::calcResidualJacobian(sim::Workspace& ws, const Eigen::VectorXd& q) 
 }
 
 double Solver::calcMarkerMotion() const {
-  // Largest displacement of a tracked marker predicted by the linearisation for step_ (J_ rows
-  // carry sqrt(weight), so divide it out again).
+  // Largest change of a tracked marker's position (m) or of a coordinate-task coordinate (rad or
+  // m) predicted by the linearisation for step_. J_ rows carry sqrt(weight): divide it out.
   const int nm = int(marker_tasks_.size());
   double motion = 0;
   for (int i = 0; i < nm; ++i) {
@@ -152,6 +152,8 @@ double Solver::calcMarkerMotion() const {
     const Eigen::Vector3d d = J_.middleRows<3>(3 * i) * step_;
     motion = std::max(motion, d.norm() / std::sqrt(weights_[i]));
   }
+  for (size_t j = 0; j < coord_tasks_.size(); ++j)
+    motion = std::max(motion, std::abs(J_.row(3 * nm + int(j)).dot(step_)) / std::sqrt(coord_tasks_[j].weight));
   return motion;
 }
 
@@ -208,7 +210,8 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
 
   // Gauss-Newton with Levenberg-Marquardt damping. Stopping rules (SolverOptions): the frame is
   // converged when the undamped step from the current point changes no coordinate by more than
-  // step_tolerance (rad or m) or moves no tracked marker by more than step_tolerance (m) -- the
+  // step_tolerance (rad or m) or moves no tracked marker (m) and no coordinate of a coordinate
+  // task (rad or m) by more than step_tolerance -- the
   // point is then that close to the minimum and the step is not taken --, when a step of a
   // linearly converging sequence predicts the remaining distance below it, or when the cost
   // stops decreasing. The marker test ends the slow tails of coordinates the markers barely

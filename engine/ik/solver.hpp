@@ -28,8 +28,8 @@ struct CoordinateTask {
 struct SolverOptions {
   int max_iterations = 200;         ///< Per frame.
   /// Converged when the next Gauss-Newton step would change no coordinate by more than this (rad
-  /// or m) or move no tracked marker by more than this (m). The IK tool sets it to the setup's
-  /// accuracy.
+  /// or m), or would move no tracked marker (m) and no coordinate-task coordinate (rad or m) by
+  /// more than this. The IK tool sets it to the setup's accuracy.
   double step_tolerance = 1e-9;
   double cost_tolerance = 1e-14;    ///< ... or when the cost decreases by less than this fraction.
 };

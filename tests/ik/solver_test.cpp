@@ -146,6 +146,15 @@ TEST(Solver, CoordinateTaskPullsTowardsReference) {
   EXPECT_NEAR(q[0], 0.25, 1e-10);
   EXPECT_NEAR(q[1], 0.02, 1e-10);
   EXPECT_NEAR(q[2], -0.3, 1e-10);
+  // With a coarse tolerance and mA already in place, no marker would move: the coordinate tasks
+  // alone must keep the solver going.
+  SolverOptions coarse;
+  coarse.step_tolerance = 1e-3;
+  Solver s2(sys, tasks, {{1, 1.0}, {2, 1.0}}, coarse);
+  q << 0.25, 0, 0;
+  s2.solveFrame(*ws, observed, {0.02, -0.3}, q);
+  EXPECT_NEAR(q[1], 0.02, 1e-3);
+  EXPECT_NEAR(q[2], -0.3, 1e-3);
 }
 
 // The hot loop allocates nothing: a frame's solve (Simbody realisations, station Jacobians,
