@@ -274,6 +274,34 @@ TEST(IkTool, MatchesMarkerNamesIgnoringSeparatorsAndRotatesTheData) {
   expectNoOutputs(c);
 }
 
+// IKCoordinateTask with value_type from_file: the coordinate file (degrees) is interpolated
+// linearly at the marker frames' times; a heavy weight makes the coordinate follow it.
+TEST(IkTool, CoordinateTaskFollowsTheCoordinateFile) {
+  const ChainCase c = makeChainCase("coordfile");
+  io::Storage ref;
+  ref.name = "reference";
+  ref.in_degrees = true;
+  ref.labels = {"time", "q_pin"};
+  ref.data.resize(11, 2);
+  for (int k = 0; k < 11; ++k) ref.data.row(k) << 0.02 * k, 10.0 + 2.0 * k;  // 10 deg + 100 deg/s
+  io::writeStorage(c.dir + "/reference.mot", ref);
+  std::string text = slurp(c.setup);
+  text = replaced(text, "<coordinate_file>Unassigned", "<coordinate_file>reference.mot");
+  text = replaced(text, "<apply>false</apply>\n\t\t\t\t\t<weight>1</weight>\n\t\t\t\t\t<value_type>default_value",
+                  "<apply>true</apply>\n\t\t\t\t\t<weight>1e8</weight>\n\t\t\t\t\t<value_type>from_file");
+  spit(c.setup, text);
+  runSetup(c.setup);
+  const io::Storage mot = io::readStorage(c.dir + "/results/chain_ik.mot");
+  for (int f = 0; f < 20; ++f)  // t = 0.01 f: halfway between rows of the file at odd frames
+    EXPECT_NEAR(mot.data(f, mot.findColumn("q_pin")), 10.0 + 100.0 * 0.01 * f, 1e-3) << "frame " << f;
+  // A coordinate the file lacks.
+  ref.labels = {"time", "q_other"};
+  io::writeStorage(c.dir + "/reference.mot", ref);
+  fs::remove_all(c.dir + "/results");
+  EXPECT_THAT(errorOf(c.setup), HasSubstr("IKCoordinateTask[q_pin]: coordinate 'q_pin' is not a column of " + c.dir + "/reference.mot"));
+  expectNoOutputs(c);
+}
+
 // ----------------------------------------------------------------------------- bad input
 
 TEST(IkTool, MalformedSetupXmlNamesFileAndLine) {
