@@ -96,7 +96,8 @@ std::string fmt(const char* f, double a) {
 // Signed distance of the patellar button's dome points to the femoral component.
 class ButtonContact {
  public:
-  ButtonContact(const io::TriangleMesh& femur, const io::TriangleMesh& button) : femur_(femur) {
+  ButtonContact(const io::TriangleMesh& femur, const io::TriangleMesh& button)
+      : femur_(femur), button_file_(button.source_file) {
     // The dome: everything in front of the flat back (x = 0 in the button's frame) by more than
     // 1 mm; the pegs behind it never meet the femur.
     for (const Vector3d& v : button.vertices)
@@ -125,7 +126,9 @@ class ButtonContact {
       return calcGap(X);
     };
     double hi = s_far, ghi = gap(hi), lo = hi, glo = ghi;
-    KNEESIM_CHECK(ghi > 0, "patellar button: the start position already touches the femoral component");
+    if (!(ghi > 0))
+      throw InputError({button_file_, 0, ""}, "expected the patellar button clear of the femoral component " +
+                                                  std::to_string(s_far * 1e3) + " mm out, got a contact there");
     const double step = 1e-3;  // thinner than the component's flange
     for (int k = 0; k < 200 && glo > 0; ++k) {
       hi = lo;
@@ -133,7 +136,10 @@ class ButtonContact {
       lo -= step;
       glo = gap(lo);
     }
-    KNEESIM_CHECK(glo <= 0 && ghi > 0, "patellar button: no touching position within 200 mm");
+    if (!(glo <= 0 && ghi > 0))
+      throw InputError({button_file_, 0, ""},
+                       "expected the patellar button to meet the femoral component within 200 mm, got no contact "
+                       "(are the button and the femoral component in the implant frames?)");
     // Illinois false position.
     int side = 0;
     for (int it = 0; it < 100 && hi - lo > 1e-10; ++it) {
@@ -157,6 +163,7 @@ class ButtonContact {
 
  private:
   contact::MeshDistance femur_;
+  std::string button_file_;
   std::vector<Vector3d> dome_;
 };
 
@@ -417,7 +424,10 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     for (int i = 0; i < 6; ++i) rep.knots[k].q[i] = knee_q[k][i];
   }
   for (int k = 1; k < nk; ++k)
-    KNEESIM_CHECK(knee_q[k][0] > knee_q[k - 1][0], "knee flexion along the path is not increasing");
+    if (!(knee_q[k][0] > knee_q[k - 1][0]))
+      throw InputError(at_setup, "expected the seated path's flexion to increase, got " +
+                                     fmt("%.3f", knee_q[k][0] / kDeg) + " deg after " +
+                                     fmt("%.3f", knee_q[k - 1][0] / kDeg) + " deg (knots closer than the seating's resolution?)");
 
   // ------------------------------------------------------------------ 4. patella
   ButtonContact button(femur_mesh, button_mesh);
