@@ -42,7 +42,9 @@ bool isIkToolTag(const std::string& tag) {
   return startsWith(t, "inversekinem") && endsWith(t, "tool");
 }
 
-void readTasks(const xml::Node& set, std::vector<TaskSpec>& out) {
+}  // namespace
+
+void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out) {
   xml::Node objects = set.child("objects");
   const xml::Node holder = objects ? objects : set;
   for (const xml::Node& t : holder.children()) {
@@ -72,8 +74,6 @@ void readTasks(const xml::Node& set, std::vector<TaskSpec>& out) {
   }
 }
 
-}  // namespace
-
 std::vector<TaskSpec> readTaskFile(const std::string& path) {
   if (!fs::exists(path)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
   auto doc = xml::Document::load(path);
@@ -81,7 +81,7 @@ std::vector<TaskSpec> readTaskFile(const std::string& path) {
   xml::Node set = root.name() == "IKTaskSet" ? root : root.child("IKTaskSet");
   if (!set) root.fail("no <IKTaskSet> in task file");
   std::vector<TaskSpec> tasks;
-  readTasks(set, tasks);
+  readTaskSet(set, tasks);
   return tasks;
 }
 
@@ -161,7 +161,7 @@ IkSetup readIkSetup(const std::string& path) {
       if (!fs::exists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
       s.tasks = readTaskFile(task_path);
     } else {
-      readTasks(set, s.tasks);
+      readTaskSet(set, s.tasks);
     }
   }
   return s;

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 
 #include "core/error.hpp"
+#include "core/xml.hpp"
 #include "ik/solver.hpp"
 
 namespace kneesim::ik {
@@ -73,6 +74,10 @@ struct IkSetup {
 /// Reads an InverseKinematicsTool setup file (also OpenSim's misspelled root tags, an IKTaskSet
 /// inline or in a file="..." attribute). Throws InputError with file, line and element.
 IkSetup readIkSetup(const std::string& path);
+
+/// Appends the IKMarkerTask and IKCoordinateTask elements of an <IKTaskSet> element (its
+/// <objects>, or its own children) to @p out. Throws InputError for an unknown task type.
+void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out);
 
 /// Reads an IKTaskSet file (root <IKTaskSet> or <OpenSimDocument><IKTaskSet>).
 std::vector<TaskSpec> readTaskFile(const std::string& path);

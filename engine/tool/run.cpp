@@ -3,11 +3,18 @@
 #include "core/error.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
+#include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
+#include "tool/knee_model.hpp"
 
 namespace kneesim::tool {
 
 namespace {
+
+void runMarkerPlacerTool(const std::string& setup_path, const RunOptions& options) {
+  const ik::MarkerPlacerResult r = ik::runMarkerPlacer(ik::readMarkerPlacerSetup(setup_path));
+  if (options.out) ik::printMarkerPlacerSummary(r, *options.out);
+}
 
 void runIkTool(const std::string& setup_path, const RunOptions& options) {
   const ik::IkSetup setup = ik::readIkSetup(setup_path);
@@ -26,6 +33,8 @@ std::vector<ToolEntry> makeTools() {
                      return startsWith(t, "inversekinem") && endsWith(t, "tool");
                    },
                    runIkTool});
+  tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
+  tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
   return tools;
 }
 
