@@ -99,7 +99,10 @@ class ContactAreaWorkspace {
  private:
   friend class ContactAreaCalculator;
   ContactAreaWorkspace() = default;
-  std::unique_ptr<DistanceField> field_;  // null: the calculator's MeshDistance
+  // One field per group of vertices (see ContactAreaCalculator::getSearchRadius); null: the
+  // calculator's MeshDistance.
+  std::unique_ptr<DistanceField> field_[2];
+  std::vector<double> buffer_[2];
   std::vector<double> distance_;
   std::vector<double> clamped_;
 };
@@ -140,10 +143,16 @@ class ContactAreaCalculator {
   /// Total area of the articular surface (m^2) and of each compartment.
   double getArticularArea() const { return area_total_; }
   double getArticularArea(CondyleSide side) const;
-  /// Distances are exact within this distance of the femoral component (m): the largest
-  /// threshold plus the longest articular edge, so every triangle a threshold crosses has exact
+  /// Distances are exact within this distance of the femoral component (m) for all articular
+  /// vertices: the largest threshold plus the longest articular edge at 90% of the vertices. The
+  /// other vertices (with a longer edge) are searched up to the largest threshold plus their
+  /// longest edge (getLongEdgeSearchRadius), so every triangle a threshold crosses has exact
   /// distances at its three vertices.
-  double getSearchRadius() const { return search_; }
+  double getSearchRadius() const { return radius_[0]; }
+  /// The search radius of the vertices with the longest edges (m).
+  double getLongEdgeSearchRadius() const { return radius_[1]; }
+  /// Number of articular vertices searched up to getLongEdgeSearchRadius.
+  int getNumLongEdgeVertices() const { return int(group_[1].size()); }
   /// The provider's name, or "MeshDistance".
   std::string getDistanceMethod() const;
 
@@ -168,7 +177,10 @@ class ContactAreaCalculator {
   std::vector<TriangleData> tri_;
   Eigen::Vector3d split_point_ = Eigen::Vector3d::Zero(), medial_ = Eigen::Vector3d::UnitZ();
   double area_total_ = 0, area_medial_ = 0, area_lateral_ = 0;
-  double search_ = 0;
+  // Vertices (local indices) searched up to radius_[0] and radius_[1], and each vertex's radius.
+  std::vector<int> group_[2];
+  double radius_[2] = {0, 0};
+  std::vector<double> vertex_radius_;
 };
 
 /// A contact-area time series.

@@ -106,7 +106,10 @@ io::Storage makeContactStorage(const ContactSeries& series, const ContactAreaCal
   s.header.emplace_back("extra_thresholds_m", formatList(o.extra_thresholds, 1.0));
   s.header.emplace_back("area_rule", toString(o.rule));
   s.header.emplace_back("distance_method", calculator.getDistanceMethod());
-  s.header.emplace_back("search_radius_m", formatNumber(calculator.getSearchRadius()));
+  s.header.emplace_back("search_radius_m", formatNumber(calculator.getSearchRadius()) + " (" +
+                                               formatNumber(calculator.getLongEdgeSearchRadius()) + " for " +
+                                               std::to_string(calculator.getNumLongEdgeVertices()) +
+                                               " vertices with longer edges)");
   s.header.emplace_back("articular_area_m2", formatNumber(calculator.getArticularArea()) + " (medial " +
                                                  formatNumber(calculator.getArticularArea(CondyleSide::medial)) +
                                                  ", lateral " +

@@ -21,6 +21,7 @@
 #include <memory>
 
 #include "contact/condyle.hpp"
+#include "contact/contact_area.hpp"
 #include "contact/distance.hpp"
 #include "contact/mesh_distance.hpp"
 #include "contact/seating.hpp"
@@ -152,6 +153,28 @@ void BM_FclVsNaiveSameFrames(benchmark::State& state) {
   state.counters["max_diff_m"] = max_diff;
 }
 BENCHMARK(BM_FclVsNaiveSameFrames)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// The whole per-frame contact area (distance map at the search radius, partial-triangle areas at
+// the threshold and 4 extra thresholds, compartments and centroids), "fcl" provider.
+void BM_ContactAreaFrame(benchmark::State& state) {
+  Fixture* f = getFixture();
+  if (!f) return state.SkipWithError("kgc4-jw implant data not found");
+  contact::ContactAreaOptions o;
+  o.extra_thresholds = {2e-3, 3e-3, 5e-3, 6e-3};
+  const contact::ContactAreaCalculator calc(f->insert, f->femur, o, &f->registry.getDistanceProvider("fcl"));
+  auto ws = calc.createWorkspace();
+  contact::ContactFrame out;
+  size_t frame = 0;
+  double S = 0;
+  for (auto _ : state) {
+    calc.calcFrame(*ws, f->X_FI[frame].inverse(), out);
+    S += out.S;
+    frame = (frame + 1) % f->X_FI.size();
+  }
+  state.counters["search_mm"] = calc.getSearchRadius() * 1e3;
+  state.counters["mean_S_mm2"] = S / double(state.iterations()) * 1e6;
+}
+BENCHMARK(BM_ContactAreaFrame)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
