@@ -4,6 +4,7 @@
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "ik/tool.hpp"
+#include "tool/contact_area_tool.hpp"
 
 namespace kneesim::tool {
 
@@ -17,6 +18,12 @@ void runIkTool(const std::string& setup_path, const RunOptions& options) {
   if (options.out) ik::printIkSummary(report, *options.out);
 }
 
+void runContactAreaTool(const std::string& setup_path, const RunOptions& options) {
+  const ContactAreaSetup setup = readContactAreaSetup(setup_path);
+  const ContactAreaReport report = runContactArea(setup, {options.progress});
+  if (options.out) printContactAreaSummary(report, *options.out);
+}
+
 std::vector<ToolEntry> makeTools() {
   std::vector<ToolEntry> tools;
   // OpenSim accepts its own historical misspellings (e.g. "InverseKinemtaticsTool").
@@ -26,6 +33,7 @@ std::vector<ToolEntry> makeTools() {
                      return startsWith(t, "inversekinem") && endsWith(t, "tool");
                    },
                    runIkTool});
+  tools.push_back({"contact_area", "ContactAreaTool", nullptr, runContactAreaTool});
   return tools;
 }
 
