@@ -454,6 +454,7 @@ ContactAreaReport runContactArea(const ContactAreaSetup& setup, const ContactAre
   const ImplantMeshes meshes = readImplantMeshes(setup);
   plugin::Registry registry;
   const auto calculator = makeContactAreaCalculator(setup, meshes, registry);
+  auto ws = calculator->createWorkspace();  // builds the provider's trees: setup, not per-frame time
 
   const auto t0 = Clock::now();
   report.kinematics = calcContactKinematics(setup, meshes, options.progress);
@@ -462,7 +463,6 @@ ContactAreaReport runContactArea(const ContactAreaSetup& setup, const ContactAre
 
   // Distance maps of the frames that get a .vtp, kept until everything is computed.
   std::vector<contact::DistanceMapFrame> maps;
-  auto ws = calculator->createWorkspace();
   std::function<void(int, int)> progress;
   if (options.progress) progress = [&](int d, int t) { options.progress("area", d, t); };
   report.series = contact::calcContactSeries(*calculator, *ws, k.time, k.X_IF, progress,
