@@ -358,4 +358,33 @@ void writeSagittalRadiusTable(const std::string& path, const std::vector<Sagitta
   });
 }
 
+InsertArticularVertices selectInsertArticularVertices(const io::TriangleMesh& insert,
+                                                      const ComponentDirections& directions, double max_normal_angle,
+                                                      const std::optional<Vector3d>& split_point) {
+  directions.validate(insert.source_file);
+  if (insert.getNumTriangles() == 0)
+    throw InputError({insert.source_file, 0, "articular surface"}, "expected a triangle mesh, got no triangles");
+  InsertArticularVertices out;
+  const std::vector<Vector3d> normals = insert.calcVertexNormals();
+  const MeshDistance md(insert);
+  const auto [lo, hi] = insert.calcBounds();
+  out.split_point = split_point ? *split_point : Vector3d(0.5 * (lo + hi));
+  out.medial_direction = directions.medial.normalized();
+  const Vector3d up = directions.superior.normalized();
+  const double t_min = 1e-6 * (hi - lo).maxCoeff();
+  const double min_cos = std::cos(max_normal_angle);
+  for (int v = 0; v < insert.getNumVertices(); ++v) {
+    const Vector3d& p = insert.vertices[size_t(v)];
+    const Vector3d& n = normals[size_t(v)];
+    if (n.dot(up) < min_cos) continue;
+    if (!isExposed(md, p, n, t_min)) continue;
+    (out.medial_direction.dot(p - out.split_point) >= 0 ? out.medial : out.lateral).push_back(v);
+  }
+  if (out.medial.empty() || out.lateral.empty())
+    throw InputError({insert.source_file, 0, "articular surface"},
+                     "expected upward-facing exposed vertices on both sides of the insert, got none on one side "
+                     "(are the component directions right?)");
+  return out;
+}
+
 }  // namespace kneesim::contact

@@ -128,6 +128,25 @@ struct ArticularSelection {
 /// Throws InputError naming the mesh's file if the mesh is empty or no vertex qualifies.
 std::vector<SurfacePoint> selectArticularPoints(const io::TriangleMesh& mesh, const ArticularSelection& selection);
 
+/// The articular surface of a tibial insert, as vertices split into compartments.
+struct InsertArticularVertices {
+  std::vector<int> medial, lateral;  ///< Insert vertex indices on each side, increasing.
+  /// A point of the medial/lateral split plane (its normal is the directions' medial direction).
+  Eigen::Vector3d split_point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d medial_direction = Eigen::Vector3d::UnitZ();  ///< Unit normal of the split plane.
+};
+
+/// Selects a tibial insert's articular vertices: every vertex whose area-weighted normal is within
+/// @p max_normal_angle of @p directions' superior direction and that is exposed (the ray along its
+/// normal leaves the insert without meeting it again), split by the plane through
+/// @p split_point (default: the centre of the mesh's bounding box) with normal
+/// @p directions.medial (medial: the positive side, plane included). Throws InputError naming the
+/// mesh file if either side has no such vertex ("are the component directions right?").
+InsertArticularVertices selectInsertArticularVertices(const io::TriangleMesh& insert,
+                                                      const ComponentDirections& directions = {},
+                                                      double max_normal_angle = 75.0 * kDegree,
+                                                      const std::optional<Eigen::Vector3d>& split_point = std::nullopt);
+
 /// Positions of @p points (drops the normals).
 std::vector<Eigen::Vector3d> getPositions(const std::vector<SurfacePoint>& points);
 /// Normals of @p points.

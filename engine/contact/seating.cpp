@@ -84,23 +84,10 @@ SeatingSetup makeSeatingSetup(io::TriangleMesh femur, io::TriangleMesh insert, c
   sel.side = CondyleSide::lateral;
   s.femur_lateral_F = selectArticularPoints(femur, sel);
 
+  const InsertArticularVertices articular = selectInsertArticularVertices(insert, insert_directions);
   const std::vector<Vector3d> normals = insert.calcVertexNormals();
-  const MeshDistance md(insert);
-  const auto [lo, hi] = insert.calcBounds();
-  const Vector3d ref = 0.5 * (lo + hi);
-  const Vector3d up = insert_directions.superior.normalized(), medial = insert_directions.medial.normalized();
-  const double t_min = 1e-6 * (hi - lo).maxCoeff();
-  for (int v = 0; v < insert.getNumVertices(); ++v) {
-    const Vector3d& p = insert.vertices[v];
-    const Vector3d& n = normals[v];
-    if (n.dot(up) < std::cos(75 * kDegree)) continue;
-    if (std::isfinite(md.calcRayHit(p, n, t_min, kInf))) continue;
-    (medial.dot(p - ref) >= 0 ? s.insert_medial_I : s.insert_lateral_I).push_back({p, n});
-  }
-  if (s.insert_medial_I.empty() || s.insert_lateral_I.empty())
-    throw InputError({insert.source_file, 0, "articular surface"},
-                     "expected upward-facing exposed vertices on both sides of the insert, got none on one side "
-                     "(are the component directions right?)");
+  for (int v : articular.medial) s.insert_medial_I.push_back({insert.vertices[size_t(v)], normals[size_t(v)]});
+  for (int v : articular.lateral) s.insert_lateral_I.push_back({insert.vertices[size_t(v)], normals[size_t(v)]});
   s.femur = std::move(femur);
   s.insert = std::move(insert);
   return s;

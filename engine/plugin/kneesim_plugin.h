@@ -88,8 +88,10 @@ typedef struct kneesim_distance_provider {
   void* (*create)(const kneesim_mesh_view* target, int n_points, const double* points_Q, char* err, int err_len);
   /* X_TQ: pose of Q in T as a row-major 3x4 matrix [R | p]. Writes for every point its signed
    * distance to the target surface (negative inside the target). Points farther than max_distance
-   * may get any value > max_distance. closest_T (3 per point, may be NULL) receives the closest
-   * target point for points within max_distance. */
+   * from the surface may get any value beyond max_distance on their side: > max_distance outside,
+   * < -max_distance inside (e.g. +-infinity). closest_T (3 per point, may be NULL) receives the
+   * closest target point for points within max_distance. A context may keep state between calls
+   * (to exploit the coherence of successive poses): one thread at a time per context. */
   int (*compute)(void* ctx, const double* X_TQ, double max_distance, double* distance, double* closest_T,
                  char* err, int err_len);
   void (*destroy)(void* ctx);

@@ -6,6 +6,7 @@
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
 #include "tool/knee_model.hpp"
+#include "tool/contact_area_tool.hpp"
 
 namespace kneesim::tool {
 
@@ -24,6 +25,12 @@ void runIkTool(const std::string& setup_path, const RunOptions& options) {
   if (options.out) ik::printIkSummary(report, *options.out);
 }
 
+void runContactAreaTool(const std::string& setup_path, const RunOptions& options) {
+  const ContactAreaSetup setup = readContactAreaSetup(setup_path);
+  const ContactAreaReport report = runContactArea(setup, {options.progress});
+  if (options.out) printContactAreaSummary(report, *options.out);
+}
+
 std::vector<ToolEntry> makeTools() {
   std::vector<ToolEntry> tools;
   // OpenSim accepts its own historical misspellings (e.g. "InverseKinemtaticsTool").
@@ -35,6 +42,7 @@ std::vector<ToolEntry> makeTools() {
                    runIkTool});
   tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
   tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
+  tools.push_back({"contact_area", "ContactAreaTool", nullptr, runContactAreaTool});
   return tools;
 }
 

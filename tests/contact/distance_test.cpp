@@ -1,0 +1,230 @@
+// The "fcl" distance provider (plugins/distance_fcl) through DistanceField: closed forms (point to
+// plane, point to sphere), the exact MeshDistance on analytic shapes and on JW's implant, poses
+// in sequences that exercise the provider's memory of earlier calls, and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "contact/condyle.hpp"
+#include "contact/distance.hpp"
+#include "contact/mesh_distance.hpp"
+#include "contact/seating.hpp"
+#include "core/error.hpp"
+#include "plugin/registry.hpp"
+#include "support/test_data.hpp"
+#include "contact/shapes.hpp"
+
+namespace kneesim::contact {
+namespace {
+
+using Eigen::Vector3d;
+
+const kneesim_distance_provider& loadProvider(plugin::Registry& reg, const std::string& name = "fcl") {
+  reg.loadPlugin("distance_fcl");
+  return reg.getDistanceProvider(name);
+}
+
+Eigen::Isometry3d makePose(const Vector3d& axis_angle, const Vector3d& p) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  if (axis_angle.norm() > 0) X.linear() = Eigen::AngleAxisd(axis_angle.norm(), axis_angle.normalized()).toRotationMatrix();
+  X.translation() = p;
+  return X;
+}
+
+TEST(DistanceFcl, RegistersFastAndNaiveProviders) {
+  plugin::Registry reg;
+  reg.loadPlugin("distance_fcl");
+  ASSERT_NE(reg.findDistanceProvider("fcl"), nullptr);
+  ASSERT_NE(reg.findDistanceProvider("fcl_pruned"), nullptr);
+  ASSERT_NE(reg.findDistanceProvider("fcl_naive"), nullptr);
+  EXPECT_NE(reg.findOrigin("fcl").find("libkneesim_distance_fcl.so"), std::string::npos);
+}
+
+// A block whose top is the plane y = 0 (100 x 100 mm, 50 mm deep, 1 mm grid): points over its
+// middle within 20 mm of the centre, at heights -8..8 mm, are closer to the top than to any side
+// or the bottom, so their signed distance is exactly their height. The block is carried by the
+// pose: the points are fixed in Q and the pose X_TQ moves them, as a moving insert would.
+class DistanceProviders : public ::testing::TestWithParam<std::string> {};
+INSTANTIATE_TEST_SUITE_P(Fcl, DistanceProviders, ::testing::Values("fcl", "fcl_pruned"));
+
+TEST_P(DistanceProviders, PointToPlaneMatchesHeightThroughMovingPoses) {
+  plugin::Registry reg;
+  std::vector<double> xs, zs;
+  test::appendNodes(xs, -0.05, 0.05, 1e-3);
+  test::appendNodes(zs, -0.05, 0.05, 1e-3);
+  const io::TriangleMesh block = test::makeHeightField(xs, zs, -0.05, [](double, double) { return 0.0; });
+  std::vector<Vector3d> pts;
+  for (int i = -10; i <= 10; ++i)
+    for (int k = -10; k <= 10; ++k) pts.emplace_back(i * 1.37e-3, 0.0, k * 1.29e-3);  // off the grid nodes
+  DistanceField field(loadProvider(reg, GetParam()), block, pts);
+  ASSERT_EQ(field.getNumPoints(), int(pts.size()));
+
+  const double max_d = 4e-3;
+  std::vector<double> d;
+  std::vector<Vector3d> closest;
+  // Heights up and down through the surface, small tilts, and jumps that break coherence.
+  const double heights[] = {8e-3, 6e-3, 4.5e-3, 3e-3, 1e-3, 0.2e-3, -0.5e-3, -2e-3, -3.9e-3, -4.2e-3, -7e-3,
+                            -3e-3, 2e-3, 7.5e-3, -7.5e-3, 0.0, 3.99e-3};
+  int frame = 0, near = 0, far_in = 0, far_out = 0;
+  for (double h : heights) {
+    const Eigen::Isometry3d X = makePose(Vector3d(0.02 * std::sin(frame), 0.3 * frame, 0.015), Vector3d(0, h, 0));
+    field.calcDistances(X, max_d, d, &closest);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Vector3d p = X * pts[i];
+      const double exact = p.y();
+      if (std::abs(exact) <= max_d) {
+        ++near;
+        ASSERT_NEAR(d[i], exact, 1e-12) << "frame " << frame << " point " << i;
+        ASSERT_NEAR((closest[i] - Vector3d(p.x(), 0, p.z())).norm(), 0.0, 1e-12);
+      } else if (exact > 0) {
+        ++far_out;
+        ASSERT_GT(d[i], max_d) << "frame " << frame << " point " << i;
+      } else {
+        ++far_in;
+        ASSERT_LT(d[i], -max_d) << "frame " << frame << " point " << i;
+      }
+    }
+    ++frame;
+  }
+  EXPECT_GT(near, 3000);
+  EXPECT_GT(far_in, 1000);  // penetrating deeper than the search radius is detected and signed
+  EXPECT_GT(far_out, 1000);
+}
+
+// A sphere of radius 30 mm (UV mesh, 80 x 160): distances agree with the exact MeshDistance on the
+// same mesh to rounding, and with the true sphere |p - c| - R within the facets' sag
+// R (1 - cos(pi / 80)) = 23 um. Points on shells inside and outside, the centre included (30 mm
+// deep: the inside test of last resort).
+TEST_P(DistanceProviders, PointToSphereMatchesExactMeshDistanceAndClosedForm) {
+  plugin::Registry reg;
+  const double R = 0.03;
+  const Vector3d c(0.01, -0.02, 0.005);
+  const io::TriangleMesh sphere = test::makeSphere(c, R, 80, 160);
+  const MeshDistance exact(sphere);
+  const double sag = R * (1 - std::cos(M_PI / 80));
+  std::vector<Vector3d> pts = {Vector3d::Zero()};
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 2000; ++i) {
+    const Vector3d u = Vector3d(g(rng), g(rng), g(rng)).normalized();
+    pts.push_back((R + (i % 41 - 20) * 0.5e-3) * u);  // radii R - 10 mm .. R + 10 mm, around Q's origin
+  }
+  DistanceField fast(loadProvider(reg, GetParam()), sphere, pts);
+  DistanceField naive(loadProvider(reg, "fcl_naive"), sphere, pts);
+  const double max_d = 5e-3;
+  std::vector<double> d, dn;
+  int checked = 0;
+  for (int frame = 0; frame < 12; ++frame) {
+    // The query shell's centre wanders around the sphere's centre by up to 2 mm and turns.
+    const Eigen::Isometry3d X =
+        makePose(Vector3d(0.1 * frame, -0.05 * frame, 0.2), c + 2e-3 * Vector3d(std::sin(frame), std::cos(2.0 * frame), 0.3));
+    fast.calcDistances(X, max_d, d);
+    naive.calcDistances(X, max_d, dn);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Vector3d p = X * pts[i];
+      const double ref = exact.calcSignedDistance(p);
+      if (std::abs(ref) <= max_d) {
+        ASSERT_NEAR(d[i], ref, 1e-12) << frame << " " << i;
+        ASSERT_NEAR(dn[i], ref, 1e-12) << frame << " " << i;
+        ASSERT_NEAR(d[i], (p - c).norm() - R, sag + 1e-12);
+        ++checked;
+      } else {
+        ASSERT_TRUE(ref > 0 ? d[i] > max_d : d[i] < -max_d) << frame << " " << i << " " << ref << " " << d[i];
+        ASSERT_NEAR(dn[i], ref, 1e-12);  // the naive provider always has the exact value
+      }
+    }
+    EXPECT_LT(d[0], -max_d);  // the centre, 30 mm inside
+  }
+  EXPECT_GT(checked, 10000);
+}
+
+// An unbounded search radius gives every point its exact distance.
+TEST_P(DistanceProviders, InfiniteSearchRadiusIsExactEverywhere) {
+  plugin::Registry reg;
+  const io::TriangleMesh box = test::makeBox(Vector3d(-0.01, -0.02, -0.03), Vector3d(0.02, 0.01, 0.0));
+  const MeshDistance exact(box);
+  std::vector<Vector3d> pts;
+  for (int i = 0; i < 300; ++i) pts.emplace_back(-0.03 + 1e-4 * i, 0.013 * std::sin(i), -0.04 + 2.1e-4 * i);
+  DistanceField field(loadProvider(reg, GetParam()), box, pts);
+  std::vector<double> d;
+  field.calcDistances(Eigen::Isometry3d::Identity(), std::numeric_limits<double>::infinity(), d);
+  for (size_t i = 0; i < pts.size(); ++i) ASSERT_NEAR(d[i], exact.calcSignedDistance(pts[i]), 1e-12) << i;
+}
+
+TEST(DistanceFcl, BadInputIsAnInputError) {
+  plugin::Registry reg;
+  const kneesim_distance_provider& fcl = loadProvider(reg);
+  io::TriangleMesh open = test::makeBox(Vector3d::Zero(), Vector3d::Ones() * 0.01);
+  open.source_file = "open_box.stl";
+  open.triangles.pop_back();
+  const std::vector<Vector3d> pts = {Vector3d(0.02, 0, 0)};
+  try {
+    DistanceField f(fcl, open, pts);
+    FAIL() << "an open mesh was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("open_box.stl"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("closed"), std::string::npos) << e.what();
+  }
+  io::TriangleMesh empty;
+  empty.source_file = "empty.stl";
+  EXPECT_THROW(DistanceField(fcl, empty, pts), InputError);
+
+  const io::TriangleMesh box = test::makeBox(Vector3d::Zero(), Vector3d::Ones() * 0.01);
+  DistanceField f(fcl, box, pts);
+  std::vector<double> d;
+  Eigen::Isometry3d skew = Eigen::Isometry3d::Identity();
+  skew.linear()(0, 1) = 0.5;
+  EXPECT_THROW(f.calcDistances(skew, 1e-3, d), InputError);
+  EXPECT_THROW(f.calcDistances(Eigen::Isometry3d::Identity(), 0.0, d), InputError);
+  EXPECT_THROW(f.calcDistances(Eigen::Isometry3d::Identity(), std::nan(""), d), InputError);
+  f.calcDistances(Eigen::Isometry3d::Identity(), 1e-3, d);  // still usable
+  EXPECT_GT(d[0], 1e-3);
+}
+
+// JW's insert articular vertices against the femoral component, seated at several flexion
+// angles and then pushed 1.5 mm into the insert: the provider agrees with MeshDistance exactly
+// for every point within the search radius, and on the side of every other point.
+TEST_P(DistanceProviders, JwInsertAgainstFemoralComponentMatchesMeshDistance) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
+  plugin::Registry reg;
+  const std::string dir = "kgc4-jw/implant/";
+  io::TriangleMesh fem = io::readStl(test::dataPath(dir + "femoral_component.stl"), {1.0, true, 0.01, 0.5});
+  io::TriangleMesh ins = io::readStl(test::dataPath(dir + "tibial_insert.stl"), {1.0, true, 0.01, 0.5});
+  const CondyleFits fits = fitCondyles(fem, ArticularSelection{});
+  const SeatingSetup setup = makeSeatingSetup(fem, ins, fits.both.cylinder);
+  std::vector<Vector3d> pts = getPositions(setup.insert_medial_I);
+  for (const Vector3d& p : getPositions(setup.insert_lateral_I)) pts.push_back(p);
+  Seater seater(setup);
+  const std::vector<SeatingResult> seats = seater.calcHingeKinematics({0.0, 20 * kDegree, 45 * kDegree});
+  const MeshDistance exact(fem);
+  DistanceField field(loadProvider(reg, GetParam()), fem, pts);
+  const double max_d = 4e-3;
+  std::vector<double> d;
+  int near = 0, inside = 0;
+  for (const SeatingResult& s : seats)
+    for (double push : {0.0, 1.5e-3}) {
+      Eigen::Isometry3d X_IF = s.X_IF;
+      X_IF.translation().y() -= push;  // the femur sinks into the insert
+      const Eigen::Isometry3d X_FI = X_IF.inverse();
+      field.calcDistances(X_FI, max_d, d);
+      for (size_t i = 0; i < pts.size(); ++i) {
+        const double ref = exact.calcSignedDistance(X_FI * pts[i]);
+        if (std::abs(ref) <= max_d) {
+          ASSERT_NEAR(d[i], ref, 1e-12) << i;
+          ++near;
+          inside += ref < 0;
+        } else {
+          ASSERT_TRUE(ref > 0 ? d[i] > max_d : d[i] < -max_d) << i;
+        }
+      }
+    }
+  std::printf("[ JW fcl   ] %zu insert articular points, %d within 4 mm over 6 poses, %d of them inside\n", pts.size(),
+              near, inside);
+  EXPECT_GT(near, 1000);
+  EXPECT_GT(inside, 100);
+}
+
+}  // namespace
+}  // namespace kneesim::contact
