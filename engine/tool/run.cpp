@@ -5,8 +5,8 @@
 #include "core/xml.hpp"
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
-#include "tool/knee_model.hpp"
 #include "tool/contact_area_tool.hpp"
+#include "tool/knee_model.hpp"
 
 namespace kneesim::tool {
 
@@ -42,7 +42,7 @@ std::vector<ToolEntry> makeTools() {
                    runIkTool});
   tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
   tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
-  tools.push_back({"contact_area", "ContactAreaTool", nullptr, runContactAreaTool});
+  tools.push_back({"contact-area", "ContactAreaTool", nullptr, runContactAreaTool});
   return tools;
 }
 

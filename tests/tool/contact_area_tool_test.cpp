@@ -74,7 +74,7 @@ double discArea(double t, double g) { return M_PI * ((kR + t) * (kR + t) - (kR +
 TEST(ContactAreaTool, ModelKinematicsMatchDiscAreas) {
   const std::string dir = makeScene("cat_model");
   writeText(dir + "/setup.xml", modelSetup("  <write_vtp>true</write_vtp>\n  <vtp_every>2</vtp_every>\n"));
-  EXPECT_EQ(detectTool(dir + "/setup.xml"), "contact_area");
+  EXPECT_EQ(detectTool(dir + "/setup.xml"), "contact-area");
   std::ostringstream summary;
   runSetupFile(dir + "/setup.xml", {&summary, {}});
   EXPECT_NE(summary.str().find("5 frames"), std::string::npos) << summary.str();
