@@ -469,6 +469,7 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
   lso.tolerance = o.tolerance;
   lso.gauss_newton = o.gauss_newton;
   lso.verbose = o.verbose;
+  if (o.warm_start) lso.warm_mu = 1e-6;
   const LeastSquaresResult sol = solveLeastSquares(data, x0, lso);
   rep.solver = {sol.status, sol.status_code, sol.success, sol.iterations, sol.sse, sol.start_sse};
   const Eigen::VectorXd start_full = full;

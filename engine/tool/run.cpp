@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
+#include "gap/tool.hpp"
 #include "ik/tool.hpp"
 
 namespace kneesim::tool {
@@ -26,6 +27,10 @@ std::vector<ToolEntry> makeTools() {
                      return startsWith(t, "inversekinem") && endsWith(t, "tool");
                    },
                    runIkTool});
+  tools.push_back({"gap", "GapTool", {}, [](const std::string& setup, const RunOptions& o) {
+                     const gap::GapRunResult r = gap::runGap(gap::readGapSetup(setup));
+                     if (o.out) gap::printGapSummary(r, *o.out);
+                   }});
   return tools;
 }
 

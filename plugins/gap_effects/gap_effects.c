@@ -154,7 +154,7 @@ static int rate_map(const double* p, const kneesim_inputs* in, const double* bas
 /* Cubic Hermite interpolation of a series y(t_j) with central-difference slopes, written as
  * weights on the samples so the same weights map the tangents. For target time tau (clamped to
  * the data) fills up to 6 (index, weight, d weight / d tau) triples; returns their count. */
-static int hermite_weights(const double* t, int n, double tau, int* idx, double* w, double* dw) {
+static int hermite_weights(const double* t, int n, double tau, int* hint, int* idx, double* w, double* dw) {
   if (n == 1) {
     idx[0] = 0;
     w[0] = 1.0;
@@ -169,14 +169,20 @@ static int hermite_weights(const double* t, int n, double tau, int* idx, double*
     tau = t[n - 1];
     clamped = 1;
   }
-  /* segment j with t[j] <= tau <= t[j+1] (binary search) */
-  int lo = 0, hi = n - 1;
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (t[mid] <= tau) lo = mid;
-    else hi = mid;
+  /* segment j with t[j] <= tau <= t[j+1]: walk from the previous call's segment (targets usually
+   * increase frame by frame), binary search otherwise */
+  int j = *hint;
+  if (j < 0 || j > n - 2 || t[j] > tau) {
+    int lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+      const int mid = (lo + hi) / 2;
+      if (t[mid] <= tau) lo = mid;
+      else hi = mid;
+    }
+    j = lo;
   }
-  const int j = lo;
+  while (j < n - 2 && t[j + 1] <= tau) ++j;
+  *hint = j;
   const double h = t[j + 1] - t[j];
   const double u = (tau - t[j]) / h;
   const double u2 = u * u, u3 = u2 * u;
@@ -209,10 +215,10 @@ static int delay_map(const double* p, const kneesim_inputs* in, const double* ba
                      double* force, double* tout, double* dforce, char* err, int err_len) {
   NEED(t, "time");
   const int n = in->n_frames;
-  int idx[6];
+  int idx[6], hint = 0;
   double w[6], dw[6];
   for (int i = 0; i < n; ++i) {
-    const int k = hermite_weights(t, n, t[i] - p[0], idx, w, dw);
+    const int k = hermite_weights(t, n, t[i] - p[0], &hint, idx, w, dw);
     double f = 0.0, df = 0.0;
     for (int m = 0; m < k; ++m) {
       f += w[m] * base[idx[m]];

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "core/error.hpp"
+#include "gap_commands.hpp"
 #include "ik/tool.hpp"
 #include "tool/run.hpp"
 
@@ -44,6 +45,10 @@ int main(int argc, char** argv) {
   ikcmd->add_option("--time-range", time_range, "Start and end time (s)")->expected(2);
   ikcmd->add_flag("--marker-locations", ik.report_marker_locations, "Also write model marker locations");
 
+  // Sim-to-real gap diagnosis: `kneesim gap` and `kneesim synth` (tools/kneesim/gap_commands.cpp).
+  kneesim::cli::GapCommandState gap_state;
+  kneesim::cli::addGapCommands(app, gap_state);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -56,6 +61,8 @@ int main(int argc, char** argv) {
       opt.out = quiet ? nullptr : &std::cout;
       opt.progress = showProgress;
       kneesim::tool::runSetupFile(setup, opt);
+    } else if (kneesim::cli::isGapCommand(gap_state)) {
+      kneesim::cli::runGapCommand(gap_state, quiet);
     } else if (*ikcmd) {
       if (time_range.size() == 2) {
         ik.time_start = time_range[0];

@@ -1,0 +1,163 @@
+#include "gap/diagnosis.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gap/jw_sources.hpp"
+#include "gap/synth.hpp"
+#include "plugin/registry.hpp"
+
+namespace kneesim::gap {
+namespace {
+
+using ::testing::HasSubstr;
+
+class Diagnosis : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    reg.loadPlugin("hertz");
+    reg.loadPlugin("gap_effects");
+    for (const auto& n : reg.getEffectNames()) catalogue.push_back(Effect::fromRegistry(reg, n));
+  }
+  identify::ContactLaw hertz() const { return identify::ContactLaw::fromRegistry(reg, "hertz"); }
+  DiagnosisOptions options() const {
+    DiagnosisOptions o;
+    o.fit.free_parameters = {"E", "nu"};
+    o.fit.assumed_values = {{"nu", 0.45}};
+    o.fit.confidence.profile = false;
+    o.fit.confidence.bootstrap_samples = 0;
+    o.fit.body_mass = 66.7;
+    o.cv_folds = 5;
+    o.screen_top = 3;
+    o.max_effects = 2;
+    o.bootstrap = 300;
+    return o;
+  }
+  std::vector<GapTrial> synthetic(const std::vector<InjectedEffect>& effects, unsigned long long seed) const {
+    SynthOptions so;
+    so.base_values = {{"E", 2.5e7 * (1 - 0.45 * 0.45)}};
+    so.effects = effects;
+    so.seed = seed;
+    return makeSyntheticTrials(hertz(), catalogue, test::jwGaitAndStair(::kneesim::test::scratchDir("gap_diag")), so);
+  }
+  plugin::Registry reg;
+  std::vector<Effect> catalogue;
+};
+
+// A 30 ms lag of the load cells: the diagnosis names it, finds the lag in the cross-correlation,
+// recovers its size within its intervals, and the gap shrinks on withheld cycles and activities.
+TEST_F(Diagnosis, TimeDelayIsNamedLocatedAndRemoved) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  const auto trials = synthetic({{"time_delay", {{"delay", 0.03}}}}, 7);
+  const GapReport rep = diagnose(hertz(), catalogue, trials, options());
+  ASSERT_EQ(rep.targets.size(), 1u);
+  const TargetDiagnosis& d = rep.targets[0];
+  std::printf("[ info     ] %s\n", d.verdict_text.c_str());
+  EXPECT_FALSE(rep.interim_inputs && rep.notes.empty());  // interim inputs are flagged in the notes
+  EXPECT_EQ(d.verdict, "time_delay");
+  ASSERT_EQ(d.selected, std::vector<std::string>{"time_delay"});
+  EXPECT_EQ(d.screening[0][0].effect, "time_delay");
+  // measured(t) = F(t - 30 ms): the prediction shifted by the lag matches best (frames are 8.3 ms).
+  EXPECT_NEAR(d.best_lag, 0.03, 0.0085);
+  // The gap is -delay * dF/dt to first order: it anti-correlates with the rate of the prediction.
+  const auto it = std::find_if(d.correlations.begin(), d.correlations.end(),
+                               [](const SignalCorrelation& c) { return c.signal == "rate of the predicted force"; });
+  ASSERT_NE(it, d.correlations.end());
+  EXPECT_LT(it->upper, -0.3);
+  const CandidateFit& cf = d.candidates[0];
+  ASSERT_EQ(cf.effect, "time_delay");
+  ASSERT_EQ(cf.parameters.size(), 1u);
+  EXPECT_LT(cf.parameters[0].ci.lower, 0.03);
+  EXPECT_GT(cf.parameters[0].ci.upper, 0.03);
+  EXPECT_LT(cf.parameters[0].ci_jackknife.lower, 0.03);
+  EXPECT_GT(cf.parameters[0].ci_jackknife.upper, 0.03);
+  EXPECT_EQ(cf.parameters[0].sign_consistency, 1.0);
+  EXPECT_LT(cf.d_bic, -10);
+  // Shrinkage: leave one cycle out and leave one activity out (gait <-> stair), intervals above 0.
+  ASSERT_FALSE(d.shrinkage.empty());
+  EXPECT_EQ(d.shrinkage[0].scope, "overall");
+  EXPECT_GT(d.shrinkage[0].ci.lower, 0.1);
+  int loao = 0;
+  for (const auto& r : d.shrinkage)
+    if (r.scheme == "leave one activity out") {
+      ++loao;
+      EXPECT_GT(r.reduction, 0.1) << r.scope;
+    }
+  EXPECT_EQ(loao, 2);
+  // The final model's withheld error is near the noise (100 N smooth + 5 N white).
+  EXPECT_LT(d.shrinkage[0].rmse_final, 115);
+  EXPECT_GT(d.shrinkage[0].rmse_base, 130);
+}
+
+// Nothing injected: the baseline is preferred, the phases' gaps lie within the repeatability band,
+// and the best monotone map of S (isotonic regression) fits at least as well as Hertz in sample,
+// since Hertz is one monotone map of S.
+TEST_F(Diagnosis, BaselineIsPreferredAndTheIsotonicFloorHolds) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  const auto trials = synthetic({}, 3);
+  const GapReport rep = diagnose(hertz(), catalogue, trials, options());
+  const TargetDiagnosis& d = rep.targets[0];
+  EXPECT_EQ(d.verdict, "baseline");
+  EXPECT_TRUE(d.selected.empty());
+  EXPECT_LE(d.reference.isotonic_in_sample_rmse, d.baseline.overall.rmse);
+  EXPECT_GT(d.reference.isotonic_in_sample_rmse, 50);  // the noise is not fitted away
+  EXPECT_GT(d.reference.mean_curve_frames, 0);
+  int within = 0, counted = 0;
+  for (const auto& p : d.phases) {
+    if (p.verdict == "gap" || p.verdict == "within noise") ++counted, within += p.verdict == "within noise";
+  }
+  EXPECT_EQ(counted, 10);  // five gait and five stair phases
+  EXPECT_GE(within, 9);
+  ASSERT_EQ(d.bands.size(), 2u);
+  EXPECT_EQ(d.bands[0].phase.size(), 50u);
+  // Every frame of every synthetic trial got a held-out prediction.
+  for (const auto& s : d.series)
+    for (double p : s.baseline) ASSERT_TRUE(std::isfinite(p)) << s.trial;
+}
+
+TEST_F(Diagnosis, CompartmentTargetsReadTheirOwnChannels) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  const auto trials = synthetic({}, 1);
+  const identify::Trial m = makeTargetTrial(trials[0], "medial");
+  EXPECT_EQ(m.channels.at("S"), trials[0].trial.channels.at("S_medial"));
+  EXPECT_EQ(m.channels.at("dS_dt"), trials[0].trial.channels.at("dS_medial_dt"));
+  EXPECT_EQ(m.measured_force, trials[0].medial);
+  EXPECT_EQ(m.channels.count("S@3mm"), 0u);  // no S_medial@3mm in the interim areas
+  EXPECT_EQ(m.channels.count("dS_dflexion"), 0u);
+  DiagnosisOptions o = options();
+  o.targets = {"lateral"};
+  o.where = false;
+  o.max_effects = 1;
+  const GapReport rep = diagnose(hertz(), catalogue, trials, o);
+  ASSERT_EQ(rep.targets.size(), 1u);
+  EXPECT_EQ(rep.targets[0].target, "lateral");
+  EXPECT_THAT(rep.targets[0].untestable, testing::Contains(HasSubstr("threshold: trial")));
+}
+
+TEST_F(Diagnosis, BadRequestsAreOneLineErrors) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  auto trials = synthetic({}, 1);
+  DiagnosisOptions o = options();
+  o.targets = {"patellar"};
+  try {
+    diagnose(hertz(), catalogue, trials, o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("target: expected total, medial or lateral, got 'patellar'"));
+  }
+  EXPECT_THROW(diagnose(hertz(), catalogue, {}, options()), InputError);
+  trials.resize(1);
+  trials[0].cycles.resize(1);
+  std::fill(trials[0].cycle_index.begin(), trials[0].cycle_index.end(), 0);
+  try {
+    diagnose(hertz(), catalogue, trials, options());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("expected at least two cycles to hold one out, got 1"));
+  }
+}
+
+}  // namespace
+}  // namespace kneesim::gap
