@@ -163,12 +163,17 @@ double pooledLag1(const Context& c, const std::vector<std::vector<double>>& v) {
   double num = 0, den = 0;
   for (const auto& u : c.units) {
     double m = 0;
-    for (int i : u.frames) m += v[u.trial][i];
-    m /= std::max<size_t>(1, u.frames.size());
+    int n = 0;
+    for (int i : u.frames)
+      if (std::isfinite(v[u.trial][i])) m += v[u.trial][i], ++n;
+    if (n == 0) continue;
+    m /= n;
     for (size_t k = 0; k < u.frames.size(); ++k) {
       const double a = v[u.trial][u.frames[k]] - m;
+      if (!std::isfinite(a)) continue;
       den += a * a;
-      if (k + 1 < u.frames.size()) num += a * (v[u.trial][u.frames[k + 1]] - m);
+      if (k + 1 < u.frames.size() && std::isfinite(v[u.trial][u.frames[k + 1]]))
+        num += a * (v[u.trial][u.frames[k + 1]] - m);
     }
   }
   return den > 0 ? num / den : 0.0;
@@ -424,20 +429,21 @@ std::vector<BandCurve> makeBands(const Context& c, const std::vector<std::vector
 
 std::vector<SignalCorrelation> correlate(const Context& c, const std::vector<std::vector<double>>& gap,
                                          const std::vector<std::vector<double>>& pred) {
-  // Candidate signals every trial has.
+  // Candidate signals; each is correlated over the trials that have it (GRF and EMG need a C3D).
   std::set<std::string> names;
-  for (const auto& [k, v] : c.trials.front().channels) {
-    const bool wanted = k == "knee_flexion" || k == "knee_flexion_rate" || k == "S" || k == "dS_dt" ||
-                        startsWith(k, "GRF:vertical") || startsWith(k, "EMG:");
-    if (!wanted) continue;
-    bool everywhere = true;
-    for (const auto& t : c.trials) everywhere = everywhere && t.channels.count(k);
-    if (everywhere) names.insert(k);
-  }
+  for (const auto& t : c.trials)
+    for (const auto& [k, v] : t.channels)
+      if (k == "knee_flexion" || k == "knee_flexion_rate" || k == "S" || k == "dS_dt" ||
+          startsWith(k, "GRF:vertical") || startsWith(k, "EMG:"))
+        names.insert(k);
   std::vector<std::pair<std::string, std::vector<std::vector<double>>>> signals;
   for (const auto& nm : names) {
     std::vector<std::vector<double>> s(c.trials.size());
-    for (size_t t = 0; t < c.trials.size(); ++t) s[t] = c.trials[t].channels.at(nm);
+    for (size_t t = 0; t < c.trials.size(); ++t) {
+      auto it = c.trials[t].channels.find(nm);
+      s[t] = it != c.trials[t].channels.end() ? it->second
+                                              : std::vector<double>(c.trials[t].time.size(), kNaN);
+    }
     signals.emplace_back(nm, s);
   }
   signals.emplace_back("predicted force", pred);
@@ -454,10 +460,11 @@ std::vector<SignalCorrelation> correlate(const Context& c, const std::vector<std
   for (const auto& [nm, s] : signals) {
     std::vector<double> x, y;
     for (const auto& u : c.units)
-      for (int i : u.frames) {
-        x.push_back(gap[u.trial][i]);
-        y.push_back(s[u.trial][i]);
-      }
+      for (int i : u.frames)
+        if (std::isfinite(s[u.trial][i]) && std::isfinite(gap[u.trial][i])) {
+          x.push_back(gap[u.trial][i]);
+          y.push_back(s[u.trial][i]);
+        }
     SignalCorrelation sc;
     sc.signal = nm;
     sc.n = static_cast<int>(x.size());
@@ -911,37 +918,51 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       std::vector<std::string> others;
       for (const auto& a : acts)
         if (a != act) others.push_back(a);
-      std::vector<double> sb, sf;
-      int n = 0;
+      // Forces of both models, fitted on the other activities, on the left-out activity's trials.
+      std::map<int, Eigen::VectorXd> forces[2];
       bool failed = false;
-      for (const Model* m : {&base, &current}) {
+      for (int k = 0; k < 2 && !failed; ++k) {
+        const Model& m = k == 0 ? base : current;
         identify::FitReport fr;
         try {
-          fr = identify::fit(m->law, restrict(c, train), fitOptionsFor(c, m->law, m->free, m->params));
+          fr = identify::fit(m.law, restrict(c, train), fitOptionsFor(c, m.law, m.free, m.params, /*warm=*/true));
         } catch (const InputError&) {
           failed = true;  // e.g. a parameter the other activities cannot determine
           break;
         }
         const Eigen::VectorXd p = fr.getValues();
-        std::vector<double>& dst = m == &base ? sb : sf;
-        std::map<int, Eigen::VectorXd> forces;
         for (int u : test) {
           const int t = c.units[u].trial;
-          if (!forces.count(t)) {
-            const identify::LawInputs in(m->law, c.trials[t].channels, c.trials[t].time, c.trials[t].name);
-            m->law.calcForce(p, in, forces[t]);
-          }
-          double s = 0;
-          for (int i : c.units[u].frames) {
-            const double r = c.trials[t].measured_force[i] - forces[t][i];
-            s += r * r;
-          }
-          dst.push_back(s);
-          if (m == &base) n += static_cast<int>(c.units[u].frames.size());
+          if (forces[k].count(t)) continue;
+          const identify::LawInputs in(m.law, c.trials[t].channels, c.trials[t].time, c.trials[t].name);
+          m.law.calcForce(p, in, forces[k][t]);
         }
       }
-      if (!failed)
-        d.shrinkage.push_back(shrinkRow(c, "leave one activity out", act, joinNames(others, " + "), sb, sf, n, rng));
+      if (failed) continue;
+      // Overall, then per phase of the left-out activity: per-cycle SSEs of both models.
+      const auto phases = getActivityDefinition(act).phases;
+      for (int ph = -1; ph < static_cast<int>(phases.size()); ++ph) {
+        std::vector<double> sb, sf;
+        int n = 0;
+        for (int u : test) {
+          const int t = c.units[u].trial;
+          const GapTrial& g = (*c.gap_trials)[t];
+          double a = 0, b = 0;
+          bool any = false;
+          for (int i : c.units[u].frames) {
+            if (ph >= 0 && !(g.cycle_phase[i] >= phases[ph].begin && g.cycle_phase[i] < phases[ph].end)) continue;
+            const double m = c.trials[t].measured_force[i];
+            a += (m - forces[0][t][i]) * (m - forces[0][t][i]);
+            b += (m - forces[1][t][i]) * (m - forces[1][t][i]);
+            ++n;
+            any = true;
+          }
+          if (any) sb.push_back(a), sf.push_back(b);
+        }
+        if (n == 0) continue;
+        d.shrinkage.push_back(shrinkRow(c, "leave one activity out", ph < 0 ? act : act + ": " + phases[ph].name,
+                                        joinNames(others, " + "), sb, sf, n, rng));
+      }
     }
   }
   return d;

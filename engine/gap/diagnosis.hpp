@@ -221,6 +221,7 @@ struct GapReport {
   std::string law, law_origin;
   std::vector<std::string> trials, activities, effects;
   bool interim_inputs = false;    ///< Some trial had interim contact areas: not a real-data result.
+  bool synthetic = false;         ///< The trials are synthetic (gap/synth.hpp): not a real-data result.
   double body_mass = 0;
   int cycles = 0;
   std::string cv_scheme;

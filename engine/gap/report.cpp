@@ -67,6 +67,11 @@ json correlationsJson(const std::vector<SignalCorrelation>& cs) {
   return a;
 }
 
+// Title prefix of the plots: what kind of data they show when it is not real data.
+std::string banner(const GapReport& r) {
+  return std::string(r.synthetic ? "SYNTHETIC TRIALS - " : "") + (r.interim_inputs ? "INTERIM INPUTS - " : "");
+}
+
 std::string bw(double n, double body_weight) { return body_weight > 0 ? fixed(n / body_weight, 2) + " BW" : "n/a"; }
 
 }  // namespace
@@ -75,6 +80,7 @@ json toJson(const GapReport& r, const Anchors& a) {
   json j;
   j["kind"] = "kneesim gap diagnosis";
   j["interim_inputs"] = r.interim_inputs;
+  j["synthetic"] = r.synthetic;
   if (r.interim_inputs)
     j["warning"] = "INTERIM INPUTS: contact areas derived from the measured force, not the contact-area tool's "
                    "output; not a real-data result";
@@ -188,6 +194,9 @@ json toJson(const GapReport& r, const Anchors& a) {
 std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& plots, const Anchors& a) {
   std::ostringstream s;
   const double bwN = r.body_mass * identify::kStandardGravity;
+  if (r.synthetic)
+    s << "> **SYNTHETIC TRIALS - NOT A REAL-DATA RESULT.** The measured forces were made by `kneesim synth` with "
+         "known injected effects (see the notes).\n\n";
   if (r.interim_inputs)
     s << "> **INTERIM INPUTS - NOT A REAL-DATA RESULT.** Some contact areas are the interim stand-in derived from "
          "the measured force (gap/interim_inputs.hpp), not the contact-area tool's output.\n\n";
@@ -218,7 +227,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
     for (const auto& p : d.phases)
       s << "| " << p.activity << " | " << p.phase << " | " << p.n_cycles << " | " << fixed(p.rmse, 0) << " N ("
         << fixed(p.rmse_bw, 2) << " BW) | " << fixed(p.bias, 0) << " N | " << fixed(p.systematic, 0) << " N | "
-        << fixed(p.band, 0) << " N | " << p.verdict << " |\n";
+        << (std::isfinite(p.band) ? fixed(p.band, 0) + " N" : std::string("n/a")) << " | " << p.verdict << " |\n";
     s << "\nSystematic gap: RMS over the phase of the mean withheld gap across cycles. Repeatability band: SD of the "
          "measured force across cycles at the same point of the cycle; a systematic gap inside it is noise.\n\n";
     s << "Correlation of the withheld gap with candidate signals (95 % intervals on the effective sample size):\n\n"
@@ -361,9 +370,9 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
     // ---- gnuplot scripts
     const int nb = static_cast<int>(d.bands.size());
     std::ostringstream bands;
-    bands << "set terminal pngcairo size 1000," << std::max(1, nb) * 320 << " font ',10'\n"
+    bands << "set terminal pngcairo size 1000," << std::max(1, nb) * 320 << " font ',10' noenhanced\n"
           << "set output '" << tg << "_bands.png.tmp'\nset multiplot layout " << std::max(1, nb) << ",1 title \""
-          << dq((r.interim_inputs ? "INTERIM INPUTS - " : std::string()) + tg + " force: withheld gap over the cycle")
+          << dq(banner(r) + tg + " force: withheld gap over the cycle")
           << "\"\nset xlabel 'normalised cycle (%)'\nset ylabel 'N'\nset grid\nset key outside right\n";
     for (int k = 0; k < nb; ++k) {
       bands << "unset arrow\n";
@@ -383,9 +392,9 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
     bands << "unset multiplot\n";
     const int ns = std::min<int>(8, static_cast<int>(d.series.size()));
     std::ostringstream fits;
-    fits << "set terminal pngcairo size 1000," << std::max(1, ns) * 260 << " font ',10'\n"
+    fits << "set terminal pngcairo size 1000," << std::max(1, ns) * 260 << " font ',10' noenhanced\n"
          << "set output '" << tg << "_fits.png.tmp'\nset multiplot layout " << std::max(1, ns) << ",1 title \""
-         << dq((r.interim_inputs ? "INTERIM INPUTS - " : std::string()) + tg +
+         << dq(banner(r) + tg +
                " force: measured and withheld predictions, before and after")
          << "\"\nset xlabel 's'\nset ylabel 'N'\nset grid\nset key outside right\n";
     for (int k = 0; k < ns; ++k)
@@ -395,9 +404,9 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
            << " using 1:4 with lines dt 2 lc rgb '#cb181d' title 'selected (" << dq(d.final_law) << ")'\n";
     fits << "unset multiplot\n";
     std::ostringstream rank;
-    rank << "set terminal pngcairo size 1000,640 font ',10'\nset output '" << tg
+    rank << "set terminal pngcairo size 1000,640 font ',10' noenhanced\nset output '" << tg
          << "_ranking.png.tmp'\nset multiplot layout 2,1 title \""
-         << dq((r.interim_inputs ? "INTERIM INPUTS - " : std::string()) + tg + " force: effects at step 1")
+         << dq(banner(r) + tg + " force: effects at step 1")
          << "\"\nset style fill solid 0.8\nset boxwidth 0.7\nset xtics rotate by -30\nset grid ytics\n"
             "set title 'screening score (z of the Lagrange multiplier statistic)'\nset ylabel 'z'\n"
             "plot '" << tg << "_ranking.dat' using 0:2:xtic(1) with boxes lc rgb '#6baed6' notitle\n"

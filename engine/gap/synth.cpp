@@ -123,6 +123,22 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
   return out;
 }
 
+std::map<std::string, double> fitSyntheticBaseline(const identify::ContactLaw& base,
+                                                   const std::vector<GapTrial>& sources,
+                                                   const identify::FitOptions& options) {
+  std::vector<identify::Trial> trials;
+  for (const auto& g : sources) trials.push_back(g.trial);
+  identify::FitOptions fo = options;
+  fo.confidence.profile = false;
+  fo.confidence.asymptotic = false;
+  fo.confidence.bootstrap_samples = 0;
+  fo.phases.clear();
+  const identify::FitReport r = identify::fit(base, trials, fo);
+  std::map<std::string, double> v;
+  for (const auto& p : r.parameters) v[p.name] = p.value;
+  return v;
+}
+
 double estimateBetweenCycleScatter(const std::vector<GapTrial>& trials, int bins) {
   // activity -> bin -> one mean per cycle
   std::map<std::string, std::vector<std::vector<double>>> per;
@@ -171,23 +187,23 @@ std::vector<BlindCase> getDefaultBlindCases() {
   nothing.name = "nothing";
   nothing.expected = "baseline";
   v.push_back(nothing);
-  v.push_back(one("exponent", "dm", 0.5));
+  v.push_back(one("exponent", "dm", 0.7));
   v.push_back(one("radius_flexion", "rho", 0.8));
   v.push_back(one("ml_compartments", "delta", 0.6));
-  v.push_back(one("rate", "tau", 0.05));
+  v.push_back(one("rate", "tau", 0.08));
   v.push_back(one("time_delay", "delay", 0.03));
-  v.push_back(one("creep", "kappa", 0.85));
-  v.push_back(one("flexion_offset", "offset", 0.05));
+  v.push_back(one("creep", "kappa", 0.9));
+  v.push_back(one("flexion_offset", "offset", 0.07));
   v.push_back(one("flexion_gain", "gain", 0.2));
-  v.push_back(one("ap_translation", "shift", 0.002));
+  v.push_back(one("ap_translation", "shift", 0.003));
   v.push_back(one("threshold", "dh", 0.0005));
-  v.push_back(one("grf_load", "gain", 0.5));
+  v.push_back(one("grf_load", "gain", 0.6));
   v.push_back(one("emg_cocontraction", "gain", 1200));
   v.push_back(one("adhesion_jkr", "psi", 3.5e5));
   BlindCase bump;
   bump.name = "phase_bump (outside)";
   bump.outside = "phase_bump";
-  bump.outside_size = 500;
+  bump.outside_size = 600;
   bump.expected = "none of the candidates";
   v.push_back(bump);
   return v;
@@ -235,6 +251,23 @@ std::string BlindSuiteResult::formatMarkdown() const {
     s << " |\n";
   }
   return s.str();
+}
+
+BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds) {
+  BlindSuiteOptions bo;
+  bo.seeds = seeds;
+  bo.synth.replicates = 3;
+  bo.synth.noise_sd = 100;
+  bo.diagnosis.fit = fit;
+  bo.diagnosis.fit.confidence.profile = false;
+  bo.diagnosis.fit.confidence.bootstrap_samples = 0;
+  bo.diagnosis.targets = {"total"};
+  bo.diagnosis.cv_folds = 5;
+  bo.diagnosis.screen_top = 3;
+  bo.diagnosis.max_effects = 2;
+  bo.diagnosis.where = false;
+  bo.diagnosis.shrinkage = false;
+  return bo;
 }
 
 BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,

@@ -55,6 +55,12 @@ struct SynthOptions {
 std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
                                           const std::vector<GapTrial>& sources, const SynthOptions& options);
 
+/// The baseline parameters of synthetic trials: @p base fitted (identify::fit with @p options, no
+/// intervals) to the measured forces of @p sources, so synthetic forces have the real magnitude.
+std::map<std::string, double> fitSyntheticBaseline(const identify::ContactLaw& base,
+                                                   const std::vector<GapTrial>& sources,
+                                                   const identify::FitOptions& options);
+
 /// The between-cycle scatter of the measured force: for each activity, the force over the
 /// normalised cycle in @p bins bins per cycle, the SD across cycles in each bin, pooled (RMS) over
 /// bins and activities. NaN when no activity has two cycles covering a bin.
@@ -115,6 +121,12 @@ struct BlindSuiteOptions {
   int threads = 2;
   std::function<void(int done, int total)> progress;
 };
+
+/// The blind suite's standard settings around a baseline identification @p fit: @p seeds seeds,
+/// three replicates per source, noise 100 N, 5-fold cross-validation, top 3 screened, at most 2
+/// effects, no where-analysis and no leave-one-activity-out (not needed for the verdict), baseline
+/// intervals off. `kneesim synth --blind-suite` and tests/gap/blind_suite_test.cpp both use it.
+BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds = 20);
 
 /// Makes synthetic trials for every case and seed from @p sources and diagnoses them blind.
 BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,

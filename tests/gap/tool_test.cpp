@@ -99,9 +99,10 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   for (const std::string f : {"gap_report.json", "gap_report.md", "total_series.dat", "total_bands.gp",
                               "medial_ranking.dat"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + f)) << f;
-  if (std::system("gnuplot --version > /dev/null 2>&1") == 0)
+  if (std::system("gnuplot --version > /dev/null 2>&1") == 0) {
     for (const std::string f : {"total_bands.png", "total_fits.png", "total_ranking.png", "medial_bands.png"})
       EXPECT_GT(std::filesystem::file_size(dir + "/out/" + f), 1000u) << f;
+  }
   const auto j = nlohmann::json::parse(readFileText(dir + "/out/gap_report.json"));
   EXPECT_TRUE(j["interim_inputs"].get<bool>());
   EXPECT_THAT(j["warning"].get<std::string>(), HasSubstr("INTERIM"));

@@ -120,14 +120,8 @@ void runSynth(const GapCommandState& st, bool quiet) {
 
   // The synthetic baseline: the law fitted to the sources' measured forces, so the synthetic
   // forces have the real magnitude.
-  std::vector<identify::Trial> fit_trials;
-  for (const auto& g : sources) fit_trials.push_back(g.trial);
-  identify::FitOptions fo = setup.options.fit;
-  fo.confidence.profile = false;
-  fo.confidence.bootstrap_samples = 0;
-  const identify::FitReport base_fit = identify::fit(law, fit_trials, fo);
   gap::SynthOptions so;
-  for (const auto& p : base_fit.parameters) so.base_values[p.name] = p.value;
+  so.base_values = gap::fitSyntheticBaseline(law, sources, setup.options.fit);
   so.noise_sd = st.noise;
   so.replicates = st.replicates;
   so.seed = st.seed;
@@ -141,16 +135,11 @@ void runSynth(const GapCommandState& st, bool quiet) {
   dopt.fit.confidence.profile = false;
   dopt.fit.confidence.bootstrap_samples = 0;
   if (st.blind_suite) {
-    gap::BlindSuiteOptions bo;
-    bo.seeds = st.seeds;
-    bo.synth = so;
-    bo.diagnosis = dopt;
-    bo.diagnosis.targets = {"total"};
+    gap::BlindSuiteOptions bo = gap::getStandardBlindSuiteOptions(setup.options.fit, st.seeds);
+    bo.synth.base_values = so.base_values;
+    bo.synth.noise_sd = st.noise;
+    bo.synth.replicates = st.replicates;
     bo.diagnosis.cv_folds = st.folds;
-    bo.diagnosis.screen_top = 3;
-    bo.diagnosis.max_effects = 2;
-    bo.diagnosis.where = false;
-    bo.diagnosis.shrinkage = false;
     if (!quiet) bo.progress = progressBar;
     const gap::BlindSuiteResult res = gap::runBlindSuite(law, catalogue, sources, bo);
     std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds
@@ -164,6 +153,7 @@ void runSynth(const GapCommandState& st, bool quiet) {
   for (const auto& e : so.effects)
     for (const auto& [p, v] : e.values) injected += (injected.empty() ? "" : ", ") + e.effect + "." + p + " = " + std::to_string(v);
   if (!so.outside.empty()) injected += (injected.empty() ? "" : ", ") + so.outside + " " + std::to_string(so.outside_size) + " N";
+  rep.synthetic = true;
   rep.notes.insert(rep.notes.begin(), "SYNTHETIC trials (seed " + std::to_string(so.seed) + ", noise " +
                                           std::to_string(so.noise_sd) + " N): injected " +
                                           (injected.empty() ? std::string("nothing") : injected));
