@@ -665,9 +665,21 @@ StructureTest structureTest(const Context& c, const Model& m) {
       if (statistic(sign) >= st.statistic) ++ge;
     }
     st.p_value = (1.0 + ge) / (1.0 + c.o->permutations);
-    st.significant = st.p_value < c.o->structure_alpha;
   }
   st.remaining = makeBands(c, gap, m.pred, c.o->bins);
+  double sys = 0, band = 0;
+  int nb = 0;
+  for (const auto& b : st.remaining)
+    for (size_t k = 0; k < b.phase.size(); ++k)
+      if (b.n_cycles[k] >= 2 && std::isfinite(b.mean_gap[k]) && std::isfinite(b.sd_measured[k])) {
+        sys += b.mean_gap[k] * b.mean_gap[k];
+        band += b.sd_measured[k] * b.sd_measured[k];
+        ++nb;
+      }
+  st.systematic_gap = nb ? std::sqrt(sys / nb) : kNaN;
+  st.repeatability_band = nb ? std::sqrt(band / nb) : kNaN;
+  st.exceeds_band = nb > 0 && st.systematic_gap > st.repeatability_band;
+  st.significant = (std::isfinite(st.p_value) && st.p_value < c.o->structure_alpha) || st.exceeds_band;
   st.correlations = correlate(c, gap, m.pred);
   return st;
 }
@@ -848,24 +860,34 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
   d.structure = structureTest(c, current);
   const std::string sel = joinNames(chosen, " + ");
   const std::string pstr = std::isfinite(d.structure.p_value) ? fmt(d.structure.p_value, 3) : "n/a";
+  const std::string evidence =
+      "sign-flip p = " + pstr + "; systematic gap " + fmt(d.structure.systematic_gap, 3) + " N against a repeatability band of " +
+      fmt(d.structure.repeatability_band, 3) + " N";
+  std::string remaining_hint;
+  if (!d.structure.correlations.empty() && std::isfinite(d.structure.correlations[0].r))
+    remaining_hint = " The remaining gap correlates most with " + d.structure.correlations[0].signal + " (r = " +
+                     fmt(d.structure.correlations[0].r, 2) + ").";
   if (d.structure.significant) {
     d.verdict = "none of the candidates";
-    d.verdict_text = chosen.empty()
-                         ? "None of the candidates explains the gap: no effect improved the withheld error enough, "
-                           "and systematic structure remains over the cycle (sign-flip p = " + pstr + ")."
-                         : "None of the candidates explains the whole gap: " + sel + " improve(s) the withheld error, "
-                           "but systematic structure remains over the cycle (sign-flip p = " + pstr + ").";
+    d.verdict_text = (chosen.empty()
+                          ? "None of the candidates explains the gap: no effect improved the withheld error enough, "
+                            "and systematic structure remains over the cycle ("
+                          : "None of the candidates explains the whole gap: " + sel +
+                                " improve(s) the withheld error, but systematic structure remains over the cycle (") +
+                     evidence + ")." + remaining_hint;
   } else if (chosen.empty()) {
     d.verdict = "baseline";
     d.verdict_text = "The baseline law is adequate at this noise level: no effect improves the withheld error "
-                     "significantly, and no systematic structure remains (sign-flip p = " + pstr + ").";
+                     "significantly, and no systematic structure remains (" + evidence + ").";
   } else {
     d.verdict = sel;
     d.verdict_text = "The gap is explained by " + sel + ": withheld error " + fmt(d.baseline_rmse_heldout, 4) +
-                     " N -> " + fmt(std::sqrt(current.cvMse(c.units)), 4) +
-                     " N, and no systematic structure remains (sign-flip p = " + pstr + ").";
+                     " N -> " + fmt(std::sqrt(current.cvMse(c.units)), 4) + " N, and no systematic structure remains (" +
+                     evidence + ").";
   }
-  if (!std::isfinite(d.structure.p_value)) d.verdict_text += " " + d.structure.note + ".";
+  if (!d.untestable.empty() && d.structure.significant)
+    d.verdict_text += " Not testable on these inputs: " + joinNames(d.untestable, "; ") + ".";
+  if (!std::isfinite(d.structure.p_value)) d.verdict_text += " (The sign-flip test needs six cycles: " + d.structure.note + ".)";
 
   // ---- series for the plots
   for (size_t t = 0; t < c.trials.size(); ++t) {

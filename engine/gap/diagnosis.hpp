@@ -160,14 +160,22 @@ struct ConfusablePair {
   std::string separated_by;       ///< What data would separate them.
 };
 
-/// Remaining systematic structure in the gap of the final model (fitted on all cycles): the
-/// statistic sums, over activities and bins of the cycle, the squared mean residual times the
-/// number of cycles; its null distribution flips the sign of whole cycles.
+/// Remaining systematic structure in the gap of the final model. Two pieces of evidence:
+///  - a sign-flip permutation test on the residuals of the fit on all cycles: the statistic sums,
+///    over activities and bins of the cycle, the squared mean residual times the number of cycles;
+///    its null distribution flips the sign of whole cycles (powerful with many cycles);
+///  - the repeatability band: the RMS over the cycle of the mean withheld gap against the RMS of the
+///    between-cycle SD of the measured force, over bins with at least two cycles (the definition of
+///    noise the report uses, and the only evidence with very few cycles).
+/// Structure remains when either says so.
 struct StructureTest {
   double statistic = 0;
   double p_value = 0;             ///< NaN with too few cycles.
   int cycles = 0;
-  bool significant = false;
+  double systematic_gap = 0;      ///< RMS over bins of the mean withheld gap, N.
+  double repeatability_band = 0;  ///< RMS over the same bins of the measured force's between-cycle SD, N.
+  bool exceeds_band = false;      ///< systematic_gap > repeatability_band.
+  bool significant = false;       ///< p_value < structure_alpha or exceeds_band.
   std::string note;
   std::vector<BandCurve> remaining;  ///< Mean held-out gap over the cycle after the selected effects.
   std::vector<SignalCorrelation> correlations;  ///< Of the remaining held-out gap.

@@ -176,6 +176,9 @@ json toJson(const GapReport& r, const Anchors& a) {
     for (const auto& b : d.structure.remaining) rem.push_back(bandJson(b));
     t["remaining_structure"] = {{"statistic", num(d.structure.statistic)}, {"p_value", num(d.structure.p_value)},
                                 {"cycles", d.structure.cycles}, {"significant", d.structure.significant},
+                                {"systematic_gap_N", num(d.structure.systematic_gap)},
+                                {"repeatability_band_N", num(d.structure.repeatability_band)},
+                                {"exceeds_band", d.structure.exceeds_band},
                                 {"note", d.structure.note}, {"bands", rem},
                                 {"correlations", correlationsJson(d.structure.correlations)}};
     json sh = json::array();
@@ -285,7 +288,9 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       s << "\n";
     }
     s << "Remaining structure after `" << d.final_law << "`: sign-flip test over cycles, p = "
-      << fmt(d.structure.p_value, 3) << " (" << d.structure.cycles << " cycles)"
+      << fmt(d.structure.p_value, 3) << " (" << d.structure.cycles << " cycles); systematic gap "
+      << fixed(d.structure.systematic_gap, 0) << " N against a repeatability band of "
+      << fixed(d.structure.repeatability_band, 0) << " N"
       << (d.structure.note.empty() ? "" : "; " + d.structure.note) << ".";
     if (!d.structure.correlations.empty())
       s << " Strongest remaining correlation: " << d.structure.correlations[0].signal << " (r = "

@@ -344,19 +344,22 @@ GapTrial assembleTrial(const TrialSource& src) {
   }
   const std::vector<double> flex_smooth = lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate));
   ch["knee_flexion_rate"] = derivative(t, flex_smooth);
-  if (!ch.count("dS_dflexion")) {
+  for (const std::string side : {"", "_medial", "_lateral"}) {
+    const std::string target = "dS" + side + "_dflexion", rate_name = "dS" + side + "_dt";
+    if (ch.count(target) || !ch.count(rate_name)) continue;
     // d S / d theta from the rates: S' theta' / (theta'^2 + eps^2), eps a tenth of the peak rate,
     // so frames where the knee hardly moves give ~0 instead of dividing noise by noise. Exact for
     // hinge kinematics (S a function of theta alone) where the knee moves; an estimate otherwise.
-    const auto& ds = ch["dS_dt"];
+    const auto& ds = ch[rate_name];
     const auto& dth = ch["knee_flexion_rate"];
     double peak = 0;
     for (double x : dth) peak = std::max(peak, std::abs(x));
     const double eps = std::max(0.1 * peak, 1e-6);
     std::vector<double> r(n);
     for (int i = 0; i < n; ++i) r[i] = ds[i] * dth[i] / (dth[i] * dth[i] + eps * eps);
-    ch["dS_dflexion"] = lowPass(r, rate, std::min(6.0, 0.45 * rate));
-    g.notes.push_back("dS_dflexion estimated from the rates dS/dt and dtheta/dt (not in the contact-area file)");
+    ch[target] = lowPass(r, rate, std::min(6.0, 0.45 * rate));
+    g.notes.push_back(target + " estimated from the rates " + rate_name +
+                      " and dtheta/dt (not in the contact-area file)");
   }
 
   // ---- force plates and EMG
