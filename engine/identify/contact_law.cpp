@@ -72,6 +72,11 @@ ContactLaw::ContactLaw(const kneesim_contact_law& table, std::string origin)
   }
 }
 
+ContactLaw::ContactLaw(std::shared_ptr<const LawImplementation> implementation, std::string origin)
+    : ContactLaw(implementation->getTable(), std::move(origin)) {
+  impl_ = std::move(implementation);
+}
+
 ContactLaw ContactLaw::fromRegistry(const plugin::Registry& registry, const std::string& name,
                                     const SourceLocation& where) {
   return ContactLaw(registry.getContactLaw(name, where), registry.findOrigin(name));
@@ -118,7 +123,8 @@ Eigen::VectorXd ContactLaw::calcDerived(const Eigen::VectorXd& params) const {
 void ContactLaw::calcForce(const double* params, const LawInputs& in, double* force, double* dforce) const {
   char err[512];
   err[0] = '\0';
-  const int rc = table_->calc_force(params, &in.get(), force, dforce, err, static_cast<int>(sizeof err));
+  const int rc = impl_ ? impl_->calcForce(params, in.get(), force, dforce, err, static_cast<int>(sizeof err))
+                       : table_->calc_force(params, &in.get(), force, dforce, err, static_cast<int>(sizeof err));
   if (rc != 0) {
     err[sizeof err - 1] = '\0';
     throw InputError(in.getSource(), "contact law '" + name_ + "' failed on trial '" + in.getTrialName() +

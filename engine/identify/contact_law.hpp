@@ -2,6 +2,7 @@
 // C++ side of a contact law (kneesim_contact_law, see plugin/kneesim_plugin.h).
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,20 @@ class LawInputs {
   SourceLocation where_;
 };
 
+/// A law whose force is computed in C++ instead of by a table's calc_force: a baseline law extended
+/// by gap-diagnosis effects (gap/extended_law.hpp) is one. It owns its kneesim_contact_law table
+/// (names, parameters, inputs), which ContactLaw reads as for a plugin's law.
+class LawImplementation {
+ public:
+  virtual ~LawImplementation() = default;
+  /// The table describing the law; its calc_force is not called.
+  virtual const kneesim_contact_law& getTable() const = 0;
+  /// The contract of kneesim_contact_law::calc_force: force[i] for every frame and, when @p dforce
+  /// is not null, dforce[p * n_frames + i]; returns 0, or non-zero with one line in @p err.
+  virtual int calcForce(const double* params, const kneesim_inputs& in, double* force, double* dforce, char* err,
+                        int err_len) const = 0;
+};
+
 /// A contact law from a plugin: its parameters, inputs and derived quantities, and its force with
 /// the exact Jacobian. The table must outlive the object (it lives in the plugin library, so keep
 /// the plugin::Registry alive).
@@ -72,6 +87,8 @@ class ContactLaw {
  public:
   /// Wraps @p table, registered by @p origin (the library path, or "built-in").
   explicit ContactLaw(const kneesim_contact_law& table, std::string origin = "built-in");
+  /// Wraps a law computed in C++; the ContactLaw (and its copies) keep @p implementation alive.
+  explicit ContactLaw(std::shared_ptr<const LawImplementation> implementation, std::string origin = "built-in");
   /// The law registered as @p name in @p registry (which must outlive it); throws InputError at
   /// @p where listing the loaded laws if there is none.
   static ContactLaw fromRegistry(const plugin::Registry& registry, const std::string& name,
@@ -81,6 +98,8 @@ class ContactLaw {
   const std::string& getDescription() const { return description_; }
   const std::string& getOrigin() const { return origin_; }
   const kneesim_contact_law& getTable() const { return *table_; }
+  /// The C++ implementation, or nullptr for a plugin's law (whose table's calc_force answers).
+  const LawImplementation* getImplementation() const { return impl_.get(); }
 
   int getNumParameters() const { return static_cast<int>(params_.size()); }
   const std::vector<LawParameter>& getParameters() const { return params_; }
@@ -115,6 +134,7 @@ class ContactLaw {
 
  private:
   const kneesim_contact_law* table_;
+  std::shared_ptr<const LawImplementation> impl_;  // null for plugin laws
   std::string origin_, name_, description_;
   std::vector<LawParameter> params_;
   std::vector<std::string> inputs_, derived_names_, derived_units_;

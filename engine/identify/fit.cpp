@@ -469,6 +469,7 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
   lso.tolerance = o.tolerance;
   lso.gauss_newton = o.gauss_newton;
   lso.verbose = o.verbose;
+  if (o.warm_start) lso.warm_mu = 1e-6;
   const LeastSquaresResult sol = solveLeastSquares(data, x0, lso);
   rep.solver = {sol.status, sol.status_code, sol.success, sol.iterations, sol.sse, sol.start_sse};
   const Eigen::VectorXd start_full = full;
@@ -557,9 +558,15 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
     Eigen::MatrixXd jtwj = Eigen::MatrixXd::Zero(k, k);
     for (int i = 0; i < n; ++i) jtwj.noalias() += w0[i] * j.row(i).transpose() * j.row(i);
     const double s2 = sse_min / (n_pos - k) * (1 + rho) / (1 - rho);
-    Eigen::FullPivLU<Eigen::MatrixXd> lu(jtwj);
+    // Invert in scaled parameters (D J^T W J D with D the sensitivity scales): parameters of very
+    // different magnitudes (a modulus ~1e7 Pa next to a threshold shift ~1e-4 m) make J^T W J
+    // look singular to a pivot threshold although it is well conditioned once scaled.
+    Eigen::VectorXd dsc(k);
+    for (int a = 0; a < k; ++a) dsc[a] = sensitivityScale(law, full, free[a]);
+    const Eigen::MatrixXd scaled = dsc.asDiagonal() * jtwj * dsc.asDiagonal();
+    Eigen::FullPivLU<Eigen::MatrixXd> lu(scaled);
     if (lu.isInvertible()) {
-      const Eigen::MatrixXd cov = s2 * lu.inverse();
+      const Eigen::MatrixXd cov = s2 * dsc.asDiagonal() * lu.inverse() * dsc.asDiagonal();
       for (int a = 0; a < k; ++a) {
         se[a] = std::sqrt(std::max(0.0, cov(a, a)));
         rep.parameters[free[a]].ci_asymptotic = {full[free[a]] - z * se[a], full[free[a]] + z * se[a]};

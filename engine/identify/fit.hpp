@@ -61,6 +61,10 @@ struct FitOptions {
   double tolerance = 1e-10;      ///< Ipopt tol on the scaled problem.
   bool gauss_newton = true;      ///< false: Ipopt's limited-memory quasi-Newton Hessian.
   bool verbose = false;          ///< Ipopt's iteration log.
+  /// The start values are known to lie near the solution (a refit on a subset of the data from the
+  /// full fit's optimum, as cross-validation does): start Ipopt's barrier small (about half the
+  /// iterations). Leave false for a fresh identification.
+  bool warm_start = false;
   SourceLocation where;          ///< The setup element, for error messages.
 };
 

@@ -5,8 +5,13 @@
  *     int kneesim_plugin_register(const kneesim_registrar* r);
  *
  * which the engine calls right after loading the library. The plugin calls r->add_* once per
- * thing it provides (contact laws, distance providers, gap effects). Tables passed to add_*
- * must stay valid while the library is loaded (use static storage).
+ * thing it provides (contact laws, distance providers, gap-diagnosis effects). Tables passed to
+ * add_* must stay valid while the library is loaded (use static storage).
+ *
+ * Versions: the engine passes its KNEESIM_PLUGIN_ABI_VERSION in r->abi_version. Fields are only
+ * ever appended (to the registrar and, behind struct_size, to the tables), so a plugin works with
+ * any engine whose version is at least the one it was built against: check
+ * r->abi_version >= KNEESIM_PLUGIN_ABI_VERSION. Version 2 added kneesim_effect and add_effect.
  *
  * Units are SI throughout: areas in m^2, distances in m, forces in N, angles in rad, time in s.
  * Functions return 0 on success; on failure they write a one-line message into err (at most
@@ -19,7 +24,7 @@
 extern "C" {
 #endif
 
-#define KNEESIM_PLUGIN_ABI_VERSION 1
+#define KNEESIM_PLUGIN_ABI_VERSION 2
 
 #if defined(_WIN32)
 #define KNEESIM_PLUGIN_EXPORT __declspec(dllexport)
@@ -97,6 +102,63 @@ typedef struct kneesim_distance_provider {
   void (*destroy)(void* ctx);
 } kneesim_distance_provider;
 
+/* A gap-diagnosis effect (ABI version 2): a candidate explanation for the difference between a
+ * contact law's force and the measured force, written as a NESTED extension of whatever baseline
+ * law the user chose. With every parameter at its default_value the extended law must give the
+ * baseline's force back exactly (default_value is "no effect": an exponent change of 0, a delay of
+ * 0 s, a gain of 0 N), so the diagnosis can test the effect against the baseline.
+ *
+ * An effect acts in one or both of two places of the extended law
+ *
+ *     F = map_force_k( ... map_force_1( F_base( rewrite_inputs_k( ... rewrite_inputs_1(channels))))),
+ *
+ *  1. rewrite_inputs (optional): replaces the values of input channels before the baseline law
+ *     sees them (a flexion offset changes S by dS_dflexion * offset; a proximity threshold moves S
+ *     between the "S@3mm" and "S@5mm" channels). Laws give derivatives only with respect to their
+ *     parameters, so the engine differentiates everything downstream of a rewrite with respect to
+ *     the rewriting effect's parameters by central differences (about 1e-9 relative); a rewrite
+ *     must therefore be a smooth function of its parameters (clamping an area at 0 is fine).
+ *  2. map_force (optional): maps the baseline force of the whole trial to the effect's force
+ *     (F_base * (S/S_ref)^dm, F_base(t - delay), F_base + gain * GRF). The map sees the whole
+ *     series, so it may shift or filter it in time.
+ *
+ * Effects compose: the engine applies every rewrite in order, then the baseline law, then every
+ * map in order. Parameters keep their own names in the table; the engine reports them as
+ * "<effect>.<param>". Units are SI, like the laws'. */
+typedef struct kneesim_effect {
+  int struct_size;            /* sizeof(kneesim_effect), for forward compatibility */
+  const char* name;           /* unique among effects, e.g. "time_delay" */
+  const char* description;    /* one line: the formula */
+  int n_params;
+  const kneesim_param* params;  /* default_value gives the baseline back; bounds as for laws */
+  int n_inputs;
+  const char* const* inputs;  /* channels the effect reads; checked before the effect is used */
+
+  /* Stage 1. n_rewrites channel names in rewrites[] (each must also be in inputs[]).
+   * rewrite_inputs writes values[c * n_frames + i], the new value of channel rewrites[c] at frame
+   * i (in sees the channels as rewritten by the effects before this one). NULL (and n_rewrites = 0)
+   * for effects acting on the force only. */
+  int n_rewrites;
+  const char* const* rewrites;
+  int (*rewrite_inputs)(const double* params, const kneesim_inputs* in, double* values, char* err, int err_len);
+
+  /* Stage 2. base[i] is the force before this map (the baseline law's after all rewrites and the
+   * earlier maps); write force[i]. When n_tangents > 0, tangent_in holds n_tangents series
+   * (tangent_in[k * n_frames + i]: derivatives of base with respect to the other parameters); write
+   * their images tangent_out[k * n_frames + i] = sum_j d force_i / d base_j * tangent_in[k * n_frames + j]
+   * (for a pointwise map just d force_i / d base_i * tangent_in[...]). When dforce is not NULL write
+   * dforce[p * n_frames + i] = d force_i / d param_p with base held fixed. NULL for effects acting on
+   * the inputs only. */
+  int (*map_force)(const double* params, const kneesim_inputs* in, const double* base, int n_tangents,
+                   const double* tangent_in, double* force, double* tangent_out, double* dforce, char* err,
+                   int err_len);
+
+  /* Plain-language text for reports (may be NULL): the physics the effect stands for, and what
+   * data would tell it apart from the effects it resembles. */
+  const char* physics;
+  const char* separated_by;
+} kneesim_effect;
+
 /* Handed to kneesim_plugin_register. Returns 0 if accepted, non-zero if the name is taken or the
  * table is invalid. */
 typedef struct kneesim_registrar {
@@ -104,8 +166,9 @@ typedef struct kneesim_registrar {
   void* host;
   int (*add_contact_law)(void* host, const kneesim_contact_law* law);
   int (*add_distance_provider)(void* host, const kneesim_distance_provider* provider);
-  /* Gap-diagnosis effects (issue 5) are registered through add_contact_law with a name of the
-   * form "effect:<name>"; see plugins/README.md. */
+  /* ABI version 2: gap-diagnosis effects (see kneesim_effect; plugins/README.md). Check
+   * abi_version >= 2 before calling it. */
+  int (*add_effect)(void* host, const kneesim_effect* effect);
 } kneesim_registrar;
 
 typedef int (*kneesim_plugin_register_fn)(const kneesim_registrar* r);

@@ -37,6 +37,7 @@ Registry::~Registry() {
   // Tables belong to the libraries: forget them before unloading.
   laws_.clear();
   providers_.clear();
+  effects_.clear();
   libraries_.clear();
 }
 
@@ -85,7 +86,8 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
   if (!fn)
     throw InputError(context,
                      "'" + path + "' is not a kneesim plugin: it does not export kneesim_plugin_register");
-  kneesim_registrar r{KNEESIM_PLUGIN_ABI_VERSION, this, &Registry::addLawThunk, &Registry::addProviderThunk};
+  kneesim_registrar r{KNEESIM_PLUGIN_ABI_VERSION, this, &Registry::addLawThunk, &Registry::addProviderThunk,
+                      &Registry::addEffectThunk};
   loading_ = path;
   reject_.clear();
   added_.clear();
@@ -101,13 +103,16 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
   loading_.clear();
   if (rc != 0) {
     // The tables live in the library that is about to be unloaded: forget what it registered.
-    for (const auto& [is_law, name] : added_) {
-      if (is_law) {
+    for (const auto& [kind, name] : added_) {
+      if (kind == Kind::Law) {
         laws_.erase(name);
         law_origins_.erase(name);
-      } else {
+      } else if (kind == Kind::Provider) {
         providers_.erase(name);
         provider_origins_.erase(name);
+      } else {
+        effects_.erase(name);
+        effect_origins_.erase(name);
       }
     }
     added_.clear();
@@ -120,6 +125,23 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
 
 namespace {
 
+// Why a parameter table is unusable, or "" when it is fine; @p who prefixes the message.
+std::string checkParams(const std::string& who, int n_params, const kneesim_param* params) {
+  if (n_params < 0 || (n_params > 0 && !params))
+    return who + "expected n_params >= 0 with a params array, got n_params = " + std::to_string(n_params);
+  for (int i = 0; i < n_params; ++i) {
+    const kneesim_param& p = params[i];
+    if (!p.name || !*p.name) return who + "parameter " + std::to_string(i) + " has no name";
+    for (int j = 0; j < i; ++j)
+      if (std::string(params[j].name) == p.name) return who + "parameter '" + p.name + "' appears twice";
+    if (!(p.lower <= p.default_value && p.default_value <= p.upper))
+      return who + "parameter '" + p.name + "': expected lower <= default <= upper, got " +
+             std::to_string(p.lower) + " <= " + std::to_string(p.default_value) + " <= " + std::to_string(p.upper);
+    if (!(p.typical_scale > 0)) return who + "parameter '" + p.name + "': expected typical_scale > 0";
+  }
+  return "";
+}
+
 // Why a contact-law table is unusable, or "" when it is fine.
 std::string checkLawTable(const kneesim_contact_law* law) {
   if (!law) return "contact-law table is NULL";
@@ -130,18 +152,7 @@ std::string checkLawTable(const kneesim_contact_law* law) {
   if (!law->name || !*law->name) return "contact-law table has no name";
   const std::string who = std::string("contact law '") + law->name + "': ";
   if (!law->calc_force) return who + "calc_force is NULL";
-  if (law->n_params < 0 || (law->n_params > 0 && !law->params))
-    return who + "expected n_params >= 0 with a params array, got n_params = " + std::to_string(law->n_params);
-  for (int i = 0; i < law->n_params; ++i) {
-    const kneesim_param& p = law->params[i];
-    if (!p.name || !*p.name) return who + "parameter " + std::to_string(i) + " has no name";
-    for (int j = 0; j < i; ++j)
-      if (std::string(law->params[j].name) == p.name) return who + "parameter '" + p.name + "' appears twice";
-    if (!(p.lower <= p.default_value && p.default_value <= p.upper))
-      return who + "parameter '" + p.name + "': expected lower <= default <= upper, got " +
-             std::to_string(p.lower) + " <= " + std::to_string(p.default_value) + " <= " + std::to_string(p.upper);
-    if (!(p.typical_scale > 0)) return who + "parameter '" + p.name + "': expected typical_scale > 0";
-  }
+  if (std::string why = checkParams(who, law->n_params, law->params); !why.empty()) return why;
   if (law->n_inputs < 0 || (law->n_inputs > 0 && !law->inputs)) return who + "invalid n_inputs/inputs";
   for (int i = 0; i < law->n_inputs; ++i)
     if (!law->inputs[i] || !*law->inputs[i]) return who + "input " + std::to_string(i) + " has no name";
@@ -151,6 +162,31 @@ std::string checkLawTable(const kneesim_contact_law* law) {
   for (int i = 0; i < law->n_derived; ++i)
     if (!law->derived_names[i] || !law->derived_units[i])
       return who + "derived quantity " + std::to_string(i) + " has no name or unit";
+  return "";
+}
+
+// Why an effect table is unusable, or "" when it is fine.
+std::string checkEffectTable(const kneesim_effect* e) {
+  if (!e) return "effect table is NULL";
+  if (e->struct_size < static_cast<int>(sizeof(kneesim_effect)))
+    return "effect table has struct_size " + std::to_string(e->struct_size) + ", expected at least " +
+           std::to_string(sizeof(kneesim_effect));
+  if (!e->name || !*e->name) return "effect table has no name";
+  const std::string who = std::string("effect '") + e->name + "': ";
+  if (!e->rewrite_inputs && !e->map_force) return who + "expected rewrite_inputs or map_force, got neither";
+  if (std::string why = checkParams(who, e->n_params, e->params); !why.empty()) return why;
+  if (e->n_inputs < 0 || (e->n_inputs > 0 && !e->inputs)) return who + "invalid n_inputs/inputs";
+  for (int i = 0; i < e->n_inputs; ++i)
+    if (!e->inputs[i] || !*e->inputs[i]) return who + "input " + std::to_string(i) + " has no name";
+  if (e->n_rewrites < 0 || (e->n_rewrites > 0 && (!e->rewrites || !e->rewrite_inputs)) ||
+      (e->rewrite_inputs && e->n_rewrites == 0))
+    return who + "rewrite_inputs needs n_rewrites > 0 and a rewrites array (and the other way round)";
+  for (int c = 0; c < e->n_rewrites; ++c) {
+    if (!e->rewrites[c] || !*e->rewrites[c]) return who + "rewritten channel " + std::to_string(c) + " has no name";
+    bool listed = false;
+    for (int i = 0; i < e->n_inputs; ++i) listed = listed || std::string(e->inputs[i]) == e->rewrites[c];
+    if (!listed) return who + "rewritten channel '" + e->rewrites[c] + "' must also be listed in inputs";
+  }
   return "";
 }
 
@@ -170,7 +206,7 @@ int Registry::addLawThunk(void* host, const kneesim_contact_law* law) {
   }
   self->laws_[law->name] = law;
   self->law_origins_[law->name] = self->loading_.empty() ? "built-in" : self->loading_;
-  self->added_.emplace_back(true, law->name);
+  self->added_.emplace_back(Kind::Law, law->name);
   return 0;
 }
 
@@ -187,7 +223,25 @@ int Registry::addProviderThunk(void* host, const kneesim_distance_provider* p) {
   }
   self->providers_[p->name] = p;
   self->provider_origins_[p->name] = self->loading_.empty() ? "built-in" : self->loading_;
-  self->added_.emplace_back(false, p->name);
+  self->added_.emplace_back(Kind::Provider, p->name);
+  return 0;
+}
+
+int Registry::addEffectThunk(void* host, const kneesim_effect* effect) {
+  auto* self = static_cast<Registry*>(host);
+  const std::string why = checkEffectTable(effect);
+  if (!why.empty()) {
+    self->reject_ = why;
+    return 1;
+  }
+  if (self->effects_.count(effect->name)) {
+    self->reject_ =
+        std::string("effect '") + effect->name + "' is already registered by " + self->effect_origins_[effect->name];
+    return 2;
+  }
+  self->effects_[effect->name] = effect;
+  self->effect_origins_[effect->name] = self->loading_.empty() ? "built-in" : self->loading_;
+  self->added_.emplace_back(Kind::Effect, effect->name);
   return 0;
 }
 
@@ -203,6 +257,18 @@ void Registry::adoptDistanceProvider(const kneesim_distance_provider* provider, 
   const int rc = addProviderThunk(this, provider);
   loading_.clear();
   KNEESIM_CHECK(rc == 0, reject_);
+}
+
+void Registry::adoptEffect(const kneesim_effect* effect, const std::string& origin) {
+  loading_ = origin;
+  const int rc = addEffectThunk(this, effect);
+  loading_.clear();
+  KNEESIM_CHECK(rc == 0, reject_);
+}
+
+const kneesim_effect* Registry::findEffect(const std::string& name) const {
+  auto it = effects_.find(name);
+  return it == effects_.end() ? nullptr : it->second;
 }
 
 const kneesim_contact_law* Registry::findContactLaw(const std::string& name) const {
@@ -235,6 +301,17 @@ const kneesim_distance_provider& Registry::getDistanceProvider(const std::string
                    "no distance provider named '" + name + "' (loaded: " + joinNames(getDistanceProviderNames()) + ")");
 }
 
+const kneesim_effect& Registry::getEffect(const std::string& name, const SourceLocation& context) const {
+  if (auto* e = findEffect(name)) return *e;
+  throw InputError(context, "no effect named '" + name + "' (loaded: " + joinNames(getEffectNames()) + ")");
+}
+
+std::vector<std::string> Registry::getEffectNames() const {
+  std::vector<std::string> v;
+  for (const auto& [n, e] : effects_) v.push_back(n);
+  return v;
+}
+
 std::vector<std::string> Registry::getContactLawNames() const {
   std::vector<std::string> v;
   for (const auto& [n, l] : laws_) v.push_back(n);
@@ -250,6 +327,7 @@ std::vector<std::string> Registry::getDistanceProviderNames() const {
 std::string Registry::findOrigin(const std::string& name) const {
   if (auto it = law_origins_.find(name); it != law_origins_.end()) return it->second;
   if (auto it = provider_origins_.find(name); it != provider_origins_.end()) return it->second;
+  if (auto it = effect_origins_.find(name); it != effect_origins_.end()) return it->second;
   return "";
 }
 

@@ -39,18 +39,25 @@ class Registry {
   /// the registry. Throws InternalError if it is invalid or its name is taken.
   void adoptContactLaw(const kneesim_contact_law* law, const std::string& origin = "built-in");
   void adoptDistanceProvider(const kneesim_distance_provider* provider, const std::string& origin = "built-in");
+  void adoptEffect(const kneesim_effect* effect, const std::string& origin = "built-in");
 
   /// The law or provider registered under @p name, or nullptr (cheap).
   const kneesim_contact_law* findContactLaw(const std::string& name) const;
   const kneesim_distance_provider* findDistanceProvider(const std::string& name) const;
+  /// The gap-diagnosis effect registered under @p name, or nullptr (cheap).
+  const kneesim_effect* findEffect(const std::string& name) const;
   /// Like find*, but throws InputError at @p context listing the available names.
   const kneesim_contact_law& getContactLaw(const std::string& name, const SourceLocation& context = {}) const;
   const kneesim_distance_provider& getDistanceProvider(const std::string& name,
                                                        const SourceLocation& context = {}) const;
+  /// Like findEffect, but throws InputError at @p context listing the effects that are loaded.
+  const kneesim_effect& getEffect(const std::string& name, const SourceLocation& context = {}) const;
 
   std::vector<std::string> getContactLawNames() const;
   std::vector<std::string> getDistanceProviderNames() const;
-  /// The library a law or provider came from ("built-in" for adopted tables).
+  /// Names of the loaded effects, sorted.
+  std::vector<std::string> getEffectNames() const;
+  /// The library a law, provider or effect came from ("built-in" for adopted tables).
   std::string findOrigin(const std::string& name) const;
 
  private:
@@ -61,12 +68,16 @@ class Registry {
   std::map<std::string, const kneesim_distance_provider*> providers_;
   std::map<std::string, std::string> law_origins_;
   std::map<std::string, std::string> provider_origins_;
+  std::map<std::string, const kneesim_effect*> effects_;
+  std::map<std::string, std::string> effect_origins_;
   std::string loading_;  // library being registered, for the origins
   std::string reject_;   // why the last add_* was refused
-  std::vector<std::pair<bool, std::string>> added_;  // (is law, name) registered by the library being loaded
+  enum class Kind { Law, Provider, Effect };
+  std::vector<std::pair<Kind, std::string>> added_;  // registered by the library being loaded
 
   static int addLawThunk(void* host, const kneesim_contact_law* law);
   static int addProviderThunk(void* host, const kneesim_distance_provider* provider);
+  static int addEffectThunk(void* host, const kneesim_effect* effect);
 };
 
 }  // namespace kneesim::plugin

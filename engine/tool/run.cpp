@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
+#include "gap/tool.hpp"
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
 #include "tool/contact_area_tool.hpp"
@@ -43,6 +44,10 @@ std::vector<ToolEntry> makeTools() {
   tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
   tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
   tools.push_back({"contact-area", "ContactAreaTool", nullptr, runContactAreaTool});
+  tools.push_back({"gap", "GapTool", {}, [](const std::string& setup, const RunOptions& o) {
+                     const gap::GapRunResult r = gap::runGap(gap::readGapSetup(setup));
+                     if (o.out) gap::printGapSummary(r, *o.out);
+                   }});
   return tools;
 }
 

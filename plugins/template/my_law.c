@@ -62,6 +62,6 @@ static const kneesim_contact_law law = {
 };
 
 KNEESIM_PLUGIN_EXPORT int kneesim_plugin_register(const kneesim_registrar* r) {
-  if (r->abi_version != KNEESIM_PLUGIN_ABI_VERSION) return -1; /* built against another ABI */
+  if (r->abi_version < KNEESIM_PLUGIN_ABI_VERSION) return -1; /* an engine older than this plugin's header */
   return r->add_contact_law(r->host, &law);
 }

@@ -1,5 +1,8 @@
 #include "identify/contact_law.hpp"
 
+#include <cstdio>
+#include <memory>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -82,6 +85,58 @@ TEST(ContactLaw, ChannelLengthsAreChecked) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "a.xml:1: Trial: trial 'walk': channel 'x': expected 3 values (one per time frame), got 2");
+  }
+}
+
+// A law computed in C++ (how gap/ wraps a baseline law with effects): F = k * x^3, with the
+// table's calc_force left NULL so only the implementation can answer.
+class CubeLaw : public LawImplementation {
+ public:
+  CubeLaw() : table_{sizeof(kneesim_contact_law), "cube", "k x^3", 1, kParams, 1, kInputs, nullptr,
+                     0, nullptr, nullptr, nullptr} {}
+  const kneesim_contact_law& getTable() const override { return table_; }
+  int calcForce(const double* p, const kneesim_inputs& in, double* f, double* df, char* err,
+                int len) const override {
+    const double* x = in.values[1];  // channel 0 is time
+    for (int i = 0; i < in.n_frames; ++i) {
+      if (x[i] < 0) {
+        std::snprintf(err, len, "negative x at frame %d", i);
+        return 1;
+      }
+      f[i] = p[0] * x[i] * x[i] * x[i];
+      if (df) df[i] = x[i] * x[i] * x[i];
+    }
+    return 0;
+  }
+
+ private:
+  kneesim_contact_law table_;
+};
+
+TEST(ContactLaw, ImplementationInCppIsCalledAndKeptAlive) {
+  std::unique_ptr<ContactLaw> copy;
+  {
+    const ContactLaw law(std::make_shared<const CubeLaw>(), "gap");
+    copy = std::make_unique<ContactLaw>(law);  // the copy shares ownership of the implementation
+  }
+  EXPECT_EQ(copy->getName(), "cube");
+  EXPECT_EQ(copy->getOrigin(), "gap");
+  const std::vector<double> time{0, 1, 2};
+  const ChannelMap ch{{"x", {1, 2, 3}}};
+  const LawInputs in(*copy, ch, time, "t");
+  Eigen::VectorXd f;
+  Eigen::MatrixXd j;
+  copy->calcForce(Eigen::VectorXd::Constant(1, 2.0), in, f, &j);
+  EXPECT_EQ(f, Eigen::Vector3d(2, 16, 54));
+  EXPECT_EQ(j.col(0), Eigen::Vector3d(1, 8, 27));
+  EXPECT_LT(calcDerivativeError(*copy, Eigen::VectorXd::Constant(1, 2.0), in)[0], 1e-7);
+  const ChannelMap bad{{"x", {1, -2, 3}}};
+  const LawInputs in_bad(*copy, bad, time, "walk");
+  try {
+    copy->calcForce(Eigen::VectorXd::Constant(1, 2.0), in_bad, f);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "contact law 'cube' failed on trial 'walk': negative x at frame 1");
   }
 }
 

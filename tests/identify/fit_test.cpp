@@ -376,5 +376,47 @@ TEST(FitTwoParameters, ProfileAndWaldIntervalsAgreeForALinearLaw) {
   }
 }
 
+
+// F = a S + b y with y ~ 1e10 S: the columns of J differ by ~1e10, so J^T W J has pivots 1e20 apart.
+// Scaled by the parameters' magnitudes it is well conditioned: the Wald interval must exist and
+// match the profile interval (the law is linear).
+int disparateForce(const double* p, const kneesim_inputs* in, double* f, double* df, char*, int) {
+  const double* s = nullptr;
+  for (int c = 0; c < in->n_channels; ++c)
+    if (std::string(in->names[c]) == "S") s = in->values[c];
+  for (int i = 0; i < in->n_frames; ++i) {
+    const double y = 1e10 * std::sin(40.0 * i / in->n_frames) * s[i];
+    f[i] = p[0] * s[i] + p[1] * y;
+    if (df) {
+      df[i] = s[i];
+      df[in->n_frames + i] = y;
+    }
+  }
+  return 0;
+}
+const kneesim_param kDisparateParams[] = {{"a", "Pa", 0, 1e9, 1e6, 1e6, 0, "slope"},
+                                          {"b", "m", -1e-5, 1e-5, 0, 1e-8, 0, "tiny gain"}};
+const kneesim_contact_law kDisparate = {sizeof(kneesim_contact_law), "disparate", "a S + b y", 2, kDisparateParams, 1,
+                                        kAffineInputs, disparateForce, 0, nullptr, nullptr, nullptr};
+
+TEST(FitTwoParameters, WaldIntervalsOfParametersOfVeryDifferentMagnitudes) {
+  const ContactLaw law(kDisparate);
+  const double a = 2.5e6, b = 3e-8;
+  Trial t = test::makeTrial("walk", [&](double s) { return a * s; }, 40.0, 12);
+  for (size_t i = 0; i < t.time.size(); ++i)
+    t.measured_force[i] += b * 1e10 * std::sin(40.0 * i / t.time.size()) * t.channels["S"][i];
+  FitOptions o;
+  o.confidence.bootstrap_samples = 0;
+  const FitReport r = fit(law, {t}, o);
+  ASSERT_TRUE(r.solver.success);
+  for (const char* name : {"a", "b"}) {
+    const ParameterResult& p = r.getParameter(name);
+    ASSERT_TRUE(p.ci_asymptotic.isValid()) << name;
+    const double wald = p.ci_asymptotic.upper - p.ci_asymptotic.lower;
+    const double prof = p.ci_profile.upper - p.ci_profile.lower;
+    EXPECT_NEAR(prof / wald, 1.0, 0.05) << name;
+  }
+}
+
 }  // namespace
 }  // namespace kneesim::identify

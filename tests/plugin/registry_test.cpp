@@ -162,5 +162,32 @@ TEST(TemplatePlugin, LoadsAndComputes) {
   EXPECT_DOUBLE_EQ(df(2, 1), 1.0);
 }
 
+
+// Run by template_install_test.sh: the template effect, built against the installed package.
+TEST(TemplatePlugin, EffectLoadsAndIsNested) {
+  const char* path = std::getenv("KNEESIM_TEMPLATE_EFFECT");
+  if (!path) GTEST_SKIP() << "run by the plugin.template_install test (KNEESIM_TEMPLATE_EFFECT not set)";
+  Registry r;
+  r.loadPlugin(path);
+  const kneesim_effect& e = r.getEffect("drift");
+  ASSERT_EQ(e.n_params, 1);
+  EXPECT_EQ(e.params[0].default_value, 0.0);
+  const double time[] = {1.0, 1.5, 2.0}, base[] = {100, 200, 300}, tangent[] = {1, 2, 3};
+  const char* names[] = {"time"};
+  const double* values[] = {time};
+  const kneesim_inputs in{3, 1, names, values};
+  double force[3], tout[3], dforce[3];
+  char err[128];
+  // F = F_base + rate (t - t_first): at rate 0 the baseline, at rate 10 N/s +0, +5, +10 N by hand.
+  const double zero = 0, ten = 10;
+  ASSERT_EQ(e.map_force(&zero, &in, base, 1, tangent, force, tout, dforce, err, sizeof err), 0);
+  EXPECT_EQ(force[2], 300.0);
+  ASSERT_EQ(e.map_force(&ten, &in, base, 1, tangent, force, tout, dforce, err, sizeof err), 0);
+  EXPECT_DOUBLE_EQ(force[1], 205.0);
+  EXPECT_DOUBLE_EQ(force[2], 310.0);
+  EXPECT_DOUBLE_EQ(dforce[2], 1.0);
+  EXPECT_DOUBLE_EQ(tout[2], 3.0);
+}
+
 }  // namespace
 }  // namespace kneesim::plugin

@@ -27,9 +27,13 @@ if command -v nm >/dev/null 2>&1; then
   [ "$exported" = "kneesim_plugin_register" ] || { echo "FAIL: exported symbols: $exported"; exit 1; }
 fi
 
-KNEESIM_TEMPLATE_PLUGIN="$plugin" "$test_exe" --gtest_filter='TemplatePlugin.*' >"$tmp/test.log" 2>&1 \
+effect="$tmp/build/libkneesim_my_effect.so"
+test -f "$effect" || { echo "FAIL: $effect was not built"; exit 1; }
+KNEESIM_TEMPLATE_PLUGIN="$plugin" KNEESIM_TEMPLATE_EFFECT="$effect" "$test_exe" --gtest_filter='TemplatePlugin.*' >"$tmp/test.log" 2>&1 \
   || { cat "$tmp/test.log"; echo "FAIL: loading the template plugin"; exit 1; }
 cat "$tmp/test.log"
 grep -q '^\[       OK \] TemplatePlugin.LoadsAndComputes' "$tmp/test.log" \
   || { echo "FAIL: TemplatePlugin.LoadsAndComputes did not run"; exit 1; }
+grep -q '^\[       OK \] TemplatePlugin.EffectLoadsAndIsNested' "$tmp/test.log" \
+  || { echo "FAIL: TemplatePlugin.EffectLoadsAndIsNested did not run"; exit 1; }
 echo "template plugin built against the installed package and loaded: OK"

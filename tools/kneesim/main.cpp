@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "core/error.hpp"
+#include "gap_commands.hpp"
 #include "ik/tool.hpp"
 #include "io/motion_compare.hpp"
 #include "io/storage.hpp"
@@ -65,6 +66,10 @@ int main(int argc, char** argv) {
   cmpcmd->add_option("--tolerance", compare_tolerance,
                      "Exit with status 3 if any column's RMS difference exceeds this (the files' unit)");
 
+  // Sim-to-real gap diagnosis: `kneesim gap` and `kneesim synth` (tools/kneesim/gap_commands.cpp).
+  kneesim::cli::GapCommandState gap_state;
+  kneesim::cli::addGapCommands(app, gap_state);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -77,6 +82,8 @@ int main(int argc, char** argv) {
       opt.out = quiet ? nullptr : &std::cout;
       opt.progress = showProgress;
       kneesim::tool::runSetupFile(setup, opt);
+    } else if (kneesim::cli::isGapCommand(gap_state)) {
+      kneesim::cli::runGapCommand(gap_state, quiet);
     } else if (*ikcmd) {
       if (time_range.size() == 2) {
         ik.time_start = time_range[0];

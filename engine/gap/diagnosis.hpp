@@ -1,0 +1,249 @@
+#pragma once
+// Sim-to-real gap diagnosis: where a contact law misses the measured knee force, which candidate
+// effect explains the miss, and how far the gap shrinks on withheld data once it is added.
+//
+// Units of cross-validation are the cycles of the trials (gap/trial_inputs.hpp). Everything is
+// judged on WITHHELD data: the baseline law (and every extension) is fitted with identify::fit()
+// on all cycles but one (or all folds but one) and predicts the cycle left out.
+//
+//  1. Where: held-out gaps (measured - predicted) over time and over the normalised cycle, per
+//     compartment target and named phase, next to the between-cycle repeatability band of the
+//     measured force (a gap inside it is noise); correlations of the gap with candidate signals
+//     and the best time shift; two reference predictors (the training-mean curve of the activity,
+//     and the best monotone map from contact area to force: isotonic regression, which bounds
+//     what any law driven by the area alone can reach).
+//  2. Which: every effect of the catalogue is screened by a score (Lagrange multiplier) test at the
+//     current model's optimum (one Gauss-Newton step from the fitted model, residuals' serial
+//     correlation discounted); the top ones are fitted fully (Ipopt) and compared by withheld
+//     error (per-cycle log ratios of held-out SSE, Student t interval), dAIC/dBIC and the stability of
+//     their parameters across folds (jackknife interval). Forward selection adds the best effect
+//     while its withheld improvement is significant (Bonferroni over the effects fitted at that
+//     step), large enough and favoured by BIC. Pairs that improve alike with nearly the same
+//     force change are reported as confusable, with what data would separate them. A sign-flip
+//     permutation test over cycles of the final fit's residuals then asks whether systematic
+//     structure remains; if it does the
+//     verdict is "none of the candidates" (with the best partial explanation), if nothing was
+//     selected and nothing remains, "baseline".
+//  3. Shrinkage: withheld RMSE of the baseline and of the selected model, leaving one cycle out
+//     and leaving one activity out, overall and per phase, with bootstrap intervals over cycles.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "gap/effect.hpp"
+#include "gap/signals.hpp"
+#include "gap/trial_inputs.hpp"
+#include "identify/fit.hpp"
+
+namespace kneesim::gap {
+
+/// What to diagnose and how.
+struct DiagnosisOptions {
+  /// Baseline identification: free parameters, values, assumed values, body mass, solver
+  /// settings. Its phases are ignored (the activities' phases are used).
+  identify::FitOptions fit;
+  /// "total", "medial" and/or "lateral": the measured force each analysis explains. For a
+  /// compartment the law reads that compartment's channels (S <- S_medial, dS_dt <- dS_medial_dt,
+  /// S@3mm <- S_medial@3mm, ...; channels without a compartment version are dropped).
+  std::vector<std::string> targets{"total"};
+  int screen_top = 4;      ///< Effects fitted fully at each selection step.
+  int max_effects = 3;     ///< Most effects selected.
+  int cv_folds = 0;        ///< 0: leave one cycle out; k > 1: k folds of cycles.
+  double level = 0.95;     ///< Confidence level of reported intervals.
+  double alpha = 0.05;     ///< Family-wise level for accepting an effect at a step (Bonferroni).
+  /// Smallest withheld mean-square-error reduction, relative to the current model's, worth an effect.
+  double min_relative_improvement = 0.05;
+  double structure_alpha = 0.01;  ///< Level of the remaining-structure test.
+  int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
+  int permutations = 2000;        ///< Sign flips of the remaining-structure test.
+  int bootstrap = 1000;           ///< Bootstrap resamples of cycles for shrinkage intervals.
+  int bins = 50;                  ///< Bins per cycle of the reported bands.
+  bool where = true;              ///< Run the where-analysis (bands, phases, correlations, references).
+  bool shrinkage = true;          ///< Run the leave-one-activity-out shrinkage.
+  double max_lag = 0.1;           ///< s: range of the time-shift search.
+  unsigned long long seed = 20150101;
+};
+
+/// Correlation of the held-out gap with a candidate signal.
+struct SignalCorrelation {
+  std::string signal;
+  double r = 0, lower = 0, upper = 0;  ///< Pearson r and its interval (Fisher z, effective n).
+  double n_eff = 0;
+  int n = 0;
+};
+
+/// The gap over the normalised cycle of one activity.
+struct BandCurve {
+  std::string activity;
+  std::vector<double> phase;          ///< Bin centres (0..1).
+  std::vector<double> mean_gap;       ///< Mean over cycles of the held-out gap, N.
+  std::vector<double> sd_gap;         ///< SD over cycles of the gap, N.
+  std::vector<double> mean_measured;  ///< Mean measured force, N.
+  std::vector<double> sd_measured;    ///< Between-cycle repeatability band: SD of the measured force, N.
+  std::vector<double> mean_predicted; ///< Mean held-out prediction, N.
+  std::vector<int> n_cycles;          ///< Cycles with frames in the bin.
+};
+
+/// The gap in one named phase.
+struct PhaseGap {
+  std::string activity, phase;
+  int n_frames = 0, n_cycles = 0;
+  double rmse = 0, rmse_bw = 0;  ///< Held-out RMSE (N, body weights).
+  double bias = 0;               ///< Mean gap (measured - predicted), N.
+  double systematic = 0;         ///< RMS over the phase's bins of the mean gap curve, N.
+  double band = 0;               ///< RMS over the phase's bins of the repeatability band, N (NaN: one cycle).
+  std::string verdict;           ///< "gap", "within noise", or "no repeatability band (one cycle)".
+};
+
+/// Held-out errors of the reference predictors and the baseline on the same frames.
+struct ReferencePredictors {
+  double baseline_rmse = 0;
+  double mean_curve_rmse = 0;      ///< Training-mean curve of the activity (NaN if no frames).
+  int mean_curve_frames = 0;       ///< Frames it could predict (cycles whose activity has training cycles).
+  double baseline_rmse_on_mean_curve_frames = 0;
+  double isotonic_rmse = 0;        ///< Best monotone area -> force map fitted on the training cycles.
+  double isotonic_in_sample_rmse = 0;  ///< The same fitted on all cycles: a floor for any law of S alone.
+};
+
+/// Score test of one effect at a selection step.
+struct Screening {
+  std::string effect;
+  bool testable = true;
+  std::string reason;            ///< Why not testable.
+  double statistic = 0;          ///< LM, discounted for serial correlation.
+  int dof = 0;
+  double p_value = 1;
+  double z = 0;                  ///< (LM - dof) / sqrt(2 dof): the ranking score.
+  double predicted_reduction = 0;  ///< SSE fraction one Gauss-Newton step would remove.
+  std::vector<std::pair<std::string, double>> one_step;  ///< One-step estimates of its parameters.
+};
+
+/// One parameter of a fitted effect.
+struct EffectParameter {
+  std::string name, unit;
+  double value = 0;
+  identify::Interval ci;          ///< Asymptotic interval from the full fit.
+  identify::Interval ci_jackknife;  ///< Jackknife over folds (Student t).
+  double fold_mean = 0, fold_sd = 0;
+  double sign_consistency = 1;    ///< Fraction of folds with the full fit's sign.
+  bool at_bound = false;
+  bool identified = true;
+};
+
+/// A fully fitted candidate (the current model plus one effect).
+struct CandidateFit {
+  std::string effect;
+  std::string law;                ///< Name of the extended law.
+  int step = 1;
+  bool converged = true;
+  double rmse_in_sample = 0;
+  double rmse_heldout = 0;
+  /// Per-cycle log ratio ln(SSE_current / SSE_candidate) of held-out errors: > 0 is better. Its
+  /// mean and Student t interval over cycles (scale-free, so cycles of large and small force count
+  /// alike; partial cycles much shorter than a whole one are merged into their neighbour).
+  MeanInterval log_ratio;
+  double one_sided_lower = 0;     ///< Lower bound of log_ratio's mean at the Bonferroni level of the step.
+  double relative_improvement = 0;  ///< Reduction of the pooled held-out mean square error, relative.
+  double d_aic = 0, d_bic = 0;    ///< Against the current model, effective frames.
+  std::vector<EffectParameter> parameters;
+  bool accepted = false;
+  std::string decision;           ///< Why (not) accepted, in words.
+  std::vector<std::string> notes;
+};
+
+/// Two effects the data cannot tell apart.
+struct ConfusablePair {
+  std::string a, b;
+  double signature_r = 0;         ///< Correlation of the force changes each makes.
+  MeanInterval difference;        ///< Per-cycle ln(SSE_b / SSE_a) of held-out errors (> 0: a is better).
+  std::string separated_by;       ///< What data would separate them.
+};
+
+/// Remaining systematic structure in the gap of the final model. Two pieces of evidence:
+///  - a sign-flip permutation test on the residuals of the fit on all cycles: the statistic sums,
+///    over activities and bins of the cycle, the squared mean residual times the number of cycles;
+///    its null distribution flips the sign of whole cycles (powerful with many cycles);
+///  - the repeatability band: the RMS over the cycle of the mean withheld gap against the RMS of the
+///    between-cycle SD of the measured force, over bins with at least two cycles (the definition of
+///    noise the report uses, and the only evidence with very few cycles).
+/// Structure remains when either says so.
+struct StructureTest {
+  double statistic = 0;
+  double p_value = 0;             ///< NaN with too few cycles.
+  int cycles = 0;
+  double systematic_gap = 0;      ///< RMS over bins of the mean withheld gap, N.
+  double repeatability_band = 0;  ///< RMS over the same bins of the measured force's between-cycle SD, N.
+  bool exceeds_band = false;      ///< systematic_gap > repeatability_band.
+  bool significant = false;       ///< p_value < structure_alpha or exceeds_band.
+  std::string note;
+  std::vector<BandCurve> remaining;  ///< Mean held-out gap over the cycle after the selected effects.
+  std::vector<SignalCorrelation> correlations;  ///< Of the remaining held-out gap.
+};
+
+/// Withheld error of the baseline and the selected model.
+struct ShrinkageRow {
+  std::string scheme;             ///< "leave one cycle out" or "leave one activity out".
+  std::string scope;              ///< "overall", a phase ("gait: mid-stance") or the activity left out.
+  std::string train;              ///< What the fits saw.
+  int n_frames = 0, n_cycles = 0;
+  double rmse_base = 0, rmse_final = 0;  ///< N.
+  double rmse_base_bw = 0, rmse_final_bw = 0;
+  double reduction = 0;           ///< 1 - rmse_final / rmse_base.
+  identify::Interval ci;          ///< Bootstrap over cycles (NaN with fewer than 2).
+};
+
+/// Per trial, the series behind the plots.
+struct TrialSeries {
+  std::string trial, activity;
+  std::vector<double> time, phase, measured, baseline, final_model;  ///< Held-out predictions.
+  std::vector<int> cycle;
+};
+
+/// The diagnosis of one target (total, medial or lateral force).
+struct TargetDiagnosis {
+  std::string target;
+  identify::FitReport baseline;   ///< Baseline fitted on all cycles.
+  double baseline_rmse_heldout = 0;
+  std::vector<TrialSeries> series;
+  std::vector<BandCurve> bands;
+  std::vector<PhaseGap> phases;
+  std::vector<SignalCorrelation> correlations;
+  double best_lag = 0, best_lag_r = 0;  ///< Shift of the prediction that best matches the measurement (s).
+  ReferencePredictors reference;
+  std::vector<std::vector<Screening>> screening;  ///< Per selection step, ranked.
+  std::vector<CandidateFit> candidates;           ///< Every full fit, in step order.
+  std::vector<std::string> selected;              ///< Accepted effects in order.
+  std::vector<ConfusablePair> confusable;
+  StructureTest structure;
+  std::string verdict;            ///< "baseline", "none of the candidates", or the selected effects joined by " + ".
+  std::string verdict_text;       ///< One paragraph.
+  std::string final_law;
+  identify::FitReport final_fit;
+  std::vector<ShrinkageRow> shrinkage;
+  std::vector<std::string> untestable;  ///< "effect: reason".
+};
+
+/// Everything diagnose() found.
+struct GapReport {
+  std::string law, law_origin;
+  std::vector<std::string> trials, activities, effects;
+  bool interim_inputs = false;    ///< Some trial had interim contact areas: not a real-data result.
+  bool synthetic = false;         ///< The trials are synthetic (gap/synth.hpp): not a real-data result.
+  double body_mass = 0;
+  int cycles = 0;
+  std::string cv_scheme;
+  std::vector<TargetDiagnosis> targets;
+  std::vector<std::string> notes;
+};
+
+/// Runs the diagnosis of @p base extended by the effects of @p catalogue on @p trials. Throws
+/// InputError for no trials, fewer than two cycles, unknown targets, or anything identify::fit
+/// refuses in the baseline.
+GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                   const std::vector<GapTrial>& trials, const DiagnosisOptions& options = {});
+
+/// The identify::Trial a target analyses: measured force and channels of that compartment.
+identify::Trial makeTargetTrial(const GapTrial& trial, const std::string& target);
+
+}  // namespace kneesim::gap

@@ -1,0 +1,446 @@
+#include "gap/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
+#include "identify/report_json.hpp"
+
+namespace kneesim::gap {
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json interval(const identify::Interval& i) { return json::array({num(i.lower), num(i.upper)}); }
+
+json meanInterval(const MeanInterval& m) {
+  return {{"mean", num(m.mean)}, {"lower", num(m.lower)}, {"upper", num(m.upper)}, {"sd", num(m.sd)}, {"n", m.n}};
+}
+
+std::string fmt(double v, int digits = 3) {
+  if (!std::isfinite(v)) return "n/a";
+  std::ostringstream s;
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+std::string fixed(double v, int decimals) {
+  if (!std::isfinite(v)) return "n/a";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(decimals) << v;
+  return s.str();
+}
+
+std::string pct(double v) { return std::isfinite(v) ? fixed(100 * v, 1) + " %" : "n/a"; }
+
+json bandJson(const BandCurve& b) {
+  json j;
+  j["activity"] = b.activity;
+  json rows = json::array();
+  for (size_t k = 0; k < b.phase.size(); ++k)
+    rows.push_back({num(b.phase[k]), num(b.mean_gap[k]), num(b.sd_gap[k]), num(b.mean_measured[k]),
+                    num(b.sd_measured[k]), num(b.mean_predicted[k]), b.n_cycles[k]});
+  j["columns"] = {"phase", "mean_gap_N", "sd_gap_N", "mean_measured_N", "repeatability_sd_N", "mean_predicted_N",
+                  "cycles"};
+  j["rows"] = rows;
+  return j;
+}
+
+json correlationsJson(const std::vector<SignalCorrelation>& cs) {
+  json a = json::array();
+  for (const auto& c : cs)
+    a.push_back({{"signal", c.signal}, {"r", num(c.r)}, {"ci", {num(c.lower), num(c.upper)}},
+                 {"n", c.n}, {"n_eff", num(c.n_eff)}});
+  return a;
+}
+
+// Title prefix of the plots: what kind of data they show when it is not real data.
+std::string banner(const GapReport& r) {
+  return std::string(r.synthetic ? "SYNTHETIC TRIALS - " : "") + (r.interim_inputs ? "INTERIM INPUTS - " : "");
+}
+
+std::string bw(double n, double body_weight) { return body_weight > 0 ? fixed(n / body_weight, 2) + " BW" : "n/a"; }
+
+}  // namespace
+
+json toJson(const GapReport& r, const Anchors& a) {
+  json j;
+  j["kind"] = "kneesim gap diagnosis";
+  j["interim_inputs"] = r.interim_inputs;
+  j["synthetic"] = r.synthetic;
+  if (r.interim_inputs)
+    j["warning"] = "INTERIM INPUTS: contact areas derived from the measured force, not the contact-area tool's "
+                   "output; not a real-data result";
+  j["law"] = r.law;
+  j["law_origin"] = r.law_origin;
+  j["trials"] = r.trials;
+  j["activities"] = r.activities;
+  j["effects"] = r.effects;
+  j["body_mass_kg"] = num(r.body_mass);
+  j["cycles"] = r.cycles;
+  j["cross_validation"] = r.cv_scheme;
+  j["notes"] = r.notes;
+  j["anchors"] = {{"source", "Knee Grand Challenge"},
+                  {"winners_rms_per_compartment_N", {a.winners_rms_low, a.winners_rms_high}},
+                  {"elastic_foundation_cosimulation_total_BW", a.elastic_foundation_bw},
+                  {"jw_body_mass_kg", a.jw_body_mass}};
+  const double bwN = r.body_mass * identify::kStandardGravity;
+  json targets = json::array();
+  for (const auto& d : r.targets) {
+    json t;
+    t["target"] = d.target;
+    t["verdict"] = d.verdict;
+    t["verdict_text"] = d.verdict_text;
+    t["selected"] = d.selected;
+    t["final_law"] = d.final_law;
+    t["baseline"] = identify::toJson(d.baseline);
+    t["baseline_heldout_rmse_N"] = num(d.baseline_rmse_heldout);
+    t["baseline_heldout_rmse_BW"] = num(bwN > 0 ? d.baseline_rmse_heldout / bwN : NAN);
+    t["final_fit"] = identify::toJson(d.final_fit);
+    json where;
+    json phases = json::array();
+    for (const auto& p : d.phases)
+      phases.push_back({{"activity", p.activity}, {"phase", p.phase}, {"frames", p.n_frames}, {"cycles", p.n_cycles},
+                        {"rmse_N", num(p.rmse)}, {"rmse_BW", num(p.rmse_bw)}, {"bias_N", num(p.bias)},
+                        {"systematic_gap_N", num(p.systematic)}, {"repeatability_band_N", num(p.band)},
+                        {"verdict", p.verdict}});
+    where["phases"] = phases;
+    where["correlations"] = correlationsJson(d.correlations);
+    where["best_time_shift_s"] = num(d.best_lag);
+    where["best_time_shift_r"] = num(d.best_lag_r);
+    where["reference_predictors"] = {
+        {"baseline_heldout_rmse_N", num(d.reference.baseline_rmse)},
+        {"training_mean_curve_heldout_rmse_N", num(d.reference.mean_curve_rmse)},
+        {"training_mean_curve_frames", d.reference.mean_curve_frames},
+        {"baseline_heldout_rmse_on_those_frames_N", num(d.reference.baseline_rmse_on_mean_curve_frames)},
+        {"isotonic_area_to_force_heldout_rmse_N", num(d.reference.isotonic_rmse)},
+        {"isotonic_area_to_force_in_sample_rmse_N", num(d.reference.isotonic_in_sample_rmse)}};
+    json bands = json::array();
+    for (const auto& b : d.bands) bands.push_back(bandJson(b));
+    where["bands"] = bands;
+    t["where"] = where;
+    json screening = json::array();
+    for (size_t s = 0; s < d.screening.size(); ++s) {
+      json step = json::array();
+      for (const auto& x : d.screening[s]) {
+        json one = {{"effect", x.effect}, {"testable", x.testable}, {"lm_statistic", num(x.statistic)},
+                    {"dof", x.dof}, {"p_value", num(x.p_value)}, {"z", num(x.z)},
+                    {"predicted_sse_reduction", num(x.predicted_reduction)}};
+        if (!x.reason.empty()) one["reason"] = x.reason;
+        json os = json::object();
+        for (const auto& [n, v] : x.one_step) os[n] = num(v);
+        one["one_step_estimate"] = os;
+        step.push_back(one);
+      }
+      screening.push_back({{"step", s + 1}, {"ranking", step}});
+    }
+    t["screening"] = screening;
+    json cands = json::array();
+    for (const auto& c : d.candidates) {
+      json ps = json::array();
+      for (const auto& p : c.parameters)
+        ps.push_back({{"name", p.name}, {"unit", p.unit}, {"value", num(p.value)}, {"ci_asymptotic", interval(p.ci)},
+                      {"ci_jackknife", interval(p.ci_jackknife)}, {"fold_mean", num(p.fold_mean)},
+                      {"fold_sd", num(p.fold_sd)}, {"sign_consistency", num(p.sign_consistency)},
+                      {"at_bound", p.at_bound}, {"identified", p.identified}});
+      cands.push_back({{"effect", c.effect}, {"law", c.law}, {"step", c.step}, {"converged", c.converged},
+                       {"rmse_in_sample_N", num(c.rmse_in_sample)}, {"rmse_heldout_N", num(c.rmse_heldout)},
+                       {"heldout_log_sse_ratio", meanInterval(c.log_ratio)},
+                       {"one_sided_lower", num(c.one_sided_lower)},
+                       {"relative_mse_reduction", num(c.relative_improvement)}, {"d_aic", num(c.d_aic)},
+                       {"d_bic", num(c.d_bic)}, {"parameters", ps}, {"accepted", c.accepted},
+                       {"decision", c.decision}, {"notes", c.notes}});
+    }
+    t["candidates"] = cands;
+    json conf = json::array();
+    for (const auto& c : d.confusable)
+      conf.push_back({{"a", c.a}, {"b", c.b}, {"signature_r", num(c.signature_r)},
+                      {"heldout_log_sse_ratio_a_over_b", meanInterval(c.difference)},
+                      {"separated_by", c.separated_by}});
+    t["confusable_pairs"] = conf;
+    t["untestable"] = d.untestable;
+    json rem = json::array();
+    for (const auto& b : d.structure.remaining) rem.push_back(bandJson(b));
+    t["remaining_structure"] = {{"statistic", num(d.structure.statistic)}, {"p_value", num(d.structure.p_value)},
+                                {"cycles", d.structure.cycles}, {"significant", d.structure.significant},
+                                {"systematic_gap_N", num(d.structure.systematic_gap)},
+                                {"repeatability_band_N", num(d.structure.repeatability_band)},
+                                {"exceeds_band", d.structure.exceeds_band},
+                                {"note", d.structure.note}, {"bands", rem},
+                                {"correlations", correlationsJson(d.structure.correlations)}};
+    json sh = json::array();
+    for (const auto& s : d.shrinkage)
+      sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
+                    {"cycles", s.n_cycles}, {"rmse_baseline_N", num(s.rmse_base)}, {"rmse_final_N", num(s.rmse_final)},
+                    {"rmse_baseline_BW", num(s.rmse_base_bw)}, {"rmse_final_BW", num(s.rmse_final_bw)},
+                    {"reduction", num(s.reduction)}, {"reduction_ci", interval(s.ci)}});
+    t["shrinkage"] = sh;
+    targets.push_back(t);
+  }
+  j["targets"] = targets;
+  return j;
+}
+
+std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& plots, const Anchors& a) {
+  std::ostringstream s;
+  const double bwN = r.body_mass * identify::kStandardGravity;
+  if (r.synthetic)
+    s << "> **SYNTHETIC TRIALS - NOT A REAL-DATA RESULT.** The measured forces were made by `kneesim synth` with "
+         "known injected effects (see the notes).\n\n";
+  if (r.interim_inputs)
+    s << "> **INTERIM INPUTS - NOT A REAL-DATA RESULT.** Some contact areas are the interim stand-in derived from "
+         "the measured force (gap/interim_inputs.hpp), not the contact-area tool's output.\n\n";
+  s << "# Sim-to-real gap diagnosis: " << r.law << "\n\n";
+  s << "Trials: ";
+  for (size_t k = 0; k < r.trials.size(); ++k) s << (k ? ", " : "") << r.trials[k];
+  s << " (" << r.cycles << " cycles; " << r.cv_scheme << "). Body mass " << fmt(r.body_mass) << " kg (1 BW = "
+    << fixed(bwN, 0) << " N).\n\n";
+  for (const auto& n : r.notes) s << "- " << n << "\n";
+  s << "\n";
+  for (const auto& d : r.targets) {
+    s << "## Target: " << d.target << " force\n\n";
+    s << "**Verdict: " << d.verdict << ".** " << d.verdict_text << "\n\n";
+    s << "Baseline `" << r.law << "` withheld RMSE " << fixed(d.baseline_rmse_heldout, 1) << " N ("
+      << bw(d.baseline_rmse_heldout, bwN) << ")";
+    if (!d.shrinkage.empty())
+      s << "; selected model `" << d.final_law << "`: " << fixed(d.shrinkage[0].rmse_final, 1) << " N ("
+        << bw(d.shrinkage[0].rmse_final, bwN) << ")";
+    s << ". Knee Grand Challenge anchors: winners' RMS errors " << fixed(a.winners_rms_low, 0) << "-"
+      << fixed(a.winners_rms_high, 0) << " N per compartment; an elastic-foundation co-simulation "
+      << fmt(a.elastic_foundation_bw) << " BW total (JW " << fmt(a.jw_body_mass) << " kg).\n\n";
+    for (const auto& p : plots)
+      if (p.rfind(d.target + "_", 0) == 0) s << "![" << p << "](" << p << ")\n\n";
+
+    s << "### Where the gap lies\n\n";
+    s << "| activity | phase | cycles | withheld RMSE | bias (measured - predicted) | systematic gap | repeatability band "
+         "| verdict |\n|---|---|---:|---:|---:|---:|---:|---|\n";
+    for (const auto& p : d.phases)
+      s << "| " << p.activity << " | " << p.phase << " | " << p.n_cycles << " | " << fixed(p.rmse, 0) << " N ("
+        << fixed(p.rmse_bw, 2) << " BW) | " << fixed(p.bias, 0) << " N | " << fixed(p.systematic, 0) << " N | "
+        << (std::isfinite(p.band) ? fixed(p.band, 0) + " N" : std::string("n/a")) << " | " << p.verdict << " |\n";
+    s << "\nSystematic gap: RMS over the phase of the mean withheld gap across cycles. Repeatability band: SD of the "
+         "measured force across cycles at the same point of the cycle; a systematic gap inside it is noise.\n\n";
+    s << "Correlation of the withheld gap with candidate signals (95 % intervals on the effective sample size):\n\n"
+         "| signal | r | interval |\n|---|---:|---|\n";
+    for (size_t k = 0; k < d.correlations.size() && k < 10; ++k) {
+      const auto& c = d.correlations[k];
+      s << "| " << c.signal << " | " << fixed(c.r, 2) << " | [" << fixed(c.lower, 2) << ", " << fixed(c.upper, 2)
+        << "] |\n";
+    }
+    s << "\nBest time shift of the prediction: " << fixed(1000 * d.best_lag, 1) << " ms (r = " << fixed(d.best_lag_r, 3)
+      << "; positive: the measured force lags the prediction).\n\n";
+    s << "Reference predictors (withheld RMSE): baseline " << fixed(d.reference.baseline_rmse, 1)
+      << " N; training-mean curve of the activity " << fixed(d.reference.mean_curve_rmse, 1) << " N (on "
+      << d.reference.mean_curve_frames << " frames, where the baseline has " << fixed(d.reference.baseline_rmse_on_mean_curve_frames, 1)
+      << " N); best monotone map area -> force " << fixed(d.reference.isotonic_rmse, 1)
+      << " N (in sample " << fixed(d.reference.isotonic_in_sample_rmse, 1)
+      << " N: no law driven by the contact area alone can do better on these data).\n\n";
+
+    s << "### Which effect\n\n";
+    for (size_t st = 0; st < d.screening.size(); ++st) {
+      s << "Screening, step " << st + 1 << " (score test at the current model; z = (LM - dof) / sqrt(2 dof)):\n\n"
+        << "| effect | z | p | SSE removed by one Gauss-Newton step | one-step estimate |\n|---|---:|---:|---:|---|\n";
+      for (const auto& x : d.screening[st]) {
+        if (!x.testable) continue;
+        std::string os;
+        for (const auto& [n, v] : x.one_step) os += (os.empty() ? "" : ", ") + n + " = " + fmt(v);
+        s << "| " << x.effect << " | " << fixed(x.z, 2) << " | " << fmt(x.p_value, 2) << " | "
+          << pct(x.predicted_reduction) << " | " << os << " |\n";
+      }
+      s << "\n";
+    }
+    s << "Full fits (withheld error per cycle: mean log ratio of SSE against the current model, > 0 is better):\n\n"
+         "| step | effect | withheld RMSE | MSE reduction | log ratio [95 % CI] | dAIC | dBIC | parameters | decision "
+         "|\n|---:|---|---:|---:|---|---:|---:|---|---|\n";
+    for (const auto& c : d.candidates) {
+      std::string ps;
+      for (const auto& p : c.parameters)
+        ps += (ps.empty() ? "" : "; ") + p.name + " = " + fmt(p.value) + " " + p.unit + " [" + fmt(p.ci.lower) + ", " +
+              fmt(p.ci.upper) + "] (folds: jackknife [" + fmt(p.ci_jackknife.lower) + ", " +
+              fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
+      s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
+        << pct(c.relative_improvement) << " | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
+        << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
+        << ps << " | " << c.decision << " |\n";
+    }
+    s << "\n";
+    if (!d.confusable.empty()) {
+      s << "Confusable pairs (both improve the withheld error, alike, with nearly proportional force changes):\n\n";
+      for (const auto& c : d.confusable) s << "- **" << c.a << " ~ " << c.b << "**: " << c.separated_by << "\n";
+      s << "\n";
+    }
+    if (!d.untestable.empty()) {
+      s << "Not testable with these inputs:\n\n";
+      for (const auto& u : d.untestable) s << "- " << u << "\n";
+      s << "\n";
+    }
+    s << "Remaining structure after `" << d.final_law << "`: sign-flip test over cycles, p = "
+      << fmt(d.structure.p_value, 3) << " (" << d.structure.cycles << " cycles); systematic gap "
+      << fixed(d.structure.systematic_gap, 0) << " N against a repeatability band of "
+      << fixed(d.structure.repeatability_band, 0) << " N"
+      << (d.structure.note.empty() ? "" : "; " + d.structure.note) << ".";
+    if (!d.structure.correlations.empty())
+      s << " Strongest remaining correlation: " << d.structure.correlations[0].signal << " (r = "
+        << fixed(d.structure.correlations[0].r, 2) << ").";
+    s << "\n\n### How far it shrinks\n\n"
+         "| scheme | scope | trained on | cycles | baseline RMSE | selected RMSE | reduction [95 % CI] |\n"
+         "|---|---|---|---:|---:|---:|---|\n";
+    for (const auto& x : d.shrinkage)
+      s << "| " << x.scheme << " | " << x.scope << " | " << x.train << " | " << x.n_cycles << " | "
+        << fixed(x.rmse_base, 1) << " N (" << fixed(x.rmse_base_bw, 2) << " BW) | " << fixed(x.rmse_final, 1) << " N ("
+        << fixed(x.rmse_final_bw, 2) << " BW) | " << pct(x.reduction) << " [" << pct(x.ci.lower) << ", "
+        << pct(x.ci.upper) << "] |\n";
+    s << "\n";
+  }
+  return s.str();
+}
+
+namespace {
+
+// Runs gnuplot on `script` in `dir`; true on success.
+bool runGnuplot(const ReportOptions& o, const std::string& dir, const std::string& script) {
+  const std::string cmd = "cd '" + dir + "' && '" + o.gnuplot + "' '" + script + "' > /dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+std::string dq(const std::string& s) {
+  std::string o;
+  for (char c : s) o += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return o;
+}
+
+}  // namespace
+
+std::vector<std::string> writeGapReport(const std::string& directory, const GapReport& r, const ReportOptions& o) {
+  fs::create_directories(directory);
+  std::vector<std::string> written, plots;
+  const bool have_gnuplot =
+      o.plots && std::system(("'" + o.gnuplot + "' --version > /dev/null 2>&1").c_str()) == 0;
+  GapReport rep = r;  // notes about plots go into the report
+  if (o.plots && !have_gnuplot) rep.notes.push_back("no plots: '" + o.gnuplot + "' could not be run");
+  for (const auto& d : r.targets) {
+    const std::string tg = d.target;
+    // ---- data files
+    writeFileAtomically(directory + "/" + tg + "_series.dat", [&](std::ostream& f) {
+      f << "# per trial (blocks separated by two blank lines): time_s measured_N baseline_heldout_N "
+           "selected_heldout_N cycle_phase\n";
+      for (const auto& sr : d.series) {
+        f << "# " << sr.trial << " (" << sr.activity << ")\n";
+        for (size_t i = 0; i < sr.time.size(); ++i)
+          f << sr.time[i] << " " << sr.measured[i] << " " << (std::isfinite(sr.baseline[i]) ? sr.baseline[i] : NAN)
+            << " " << sr.final_model[i] << " " << sr.phase[i] << "\n";
+        f << "\n\n";
+      }
+    });
+    writeFileAtomically(directory + "/" + tg + "_bands.dat", [&](std::ostream& f) {
+      f << "# per activity (blocks): phase mean_gap sd_gap mean_measured repeatability_sd mean_predicted cycles "
+           "remaining_mean_gap\n";
+      for (size_t k = 0; k < d.bands.size(); ++k) {
+        const auto& b = d.bands[k];
+        const BandCurve* rem = k < d.structure.remaining.size() ? &d.structure.remaining[k] : nullptr;
+        f << "# " << b.activity << "\n";
+        for (size_t i = 0; i < b.phase.size(); ++i)
+          f << b.phase[i] << " " << b.mean_gap[i] << " " << (std::isfinite(b.sd_gap[i]) ? b.sd_gap[i] : 0.0) << " "
+            << b.mean_measured[i] << " " << (std::isfinite(b.sd_measured[i]) ? b.sd_measured[i] : 0.0) << " "
+            << b.mean_predicted[i] << " " << b.n_cycles[i] << " " << (rem ? rem->mean_gap[i] : NAN) << "\n";
+        f << "\n\n";
+      }
+    });
+    writeFileAtomically(directory + "/" + tg + "_ranking.dat", [&](std::ostream& f) {
+      f << "# effect screening_z relative_mse_reduction_percent (step 1; NaN: not fitted)\n";
+      if (d.screening.empty()) return;
+      for (const auto& x : d.screening[0]) {
+        if (!x.testable) continue;
+        double rel = NAN;
+        for (const auto& c : d.candidates)
+          if (c.step == 1 && c.effect == x.effect) rel = 100 * c.relative_improvement;
+        f << x.effect << " " << x.z << " " << rel << "\n";
+      }
+    });
+    for (const char* suffix : {"_series.dat", "_bands.dat", "_ranking.dat"}) written.push_back(tg + suffix);
+
+    // ---- gnuplot scripts
+    const int nb = static_cast<int>(d.bands.size());
+    std::ostringstream bands;
+    bands << "set terminal pngcairo size 1000," << std::max(1, nb) * 320 << " font ',10' noenhanced\n"
+          << "set output '" << tg << "_bands.png.tmp'\nset multiplot layout " << std::max(1, nb) << ",1 title \""
+          << dq(banner(r) + tg + " force: withheld gap over the cycle")
+          << "\"\nset xlabel 'normalised cycle (%)'\nset ylabel 'N'\nset grid\nset key outside right\n";
+    for (int k = 0; k < nb; ++k) {
+      bands << "unset arrow\n";
+      for (const auto& ph : getActivityDefinition(d.bands[k].activity).phases) {
+        if (ph.begin > 0)
+          bands << "set arrow from " << 100 * ph.begin << ", graph 0 to " << 100 * ph.begin
+                << ", graph 1 nohead dt 3 lc rgb '#888888'\n";
+      }
+      bands << "set title \"" << dq(d.bands[k].activity) << "\"\n"
+            << "plot '" << tg << "_bands.dat' index " << k
+            << " using ($1*100):(-$5):($5) with filledcurves fc rgb '#dddddd' title 'repeatability band (SD of measured)', \\\n"
+            << "  '' index " << k << " using ($1*100):($2-$3):($2+$3) with filledcurves fc rgb '#9ecae1' fs transparent solid 0.6 title 'gap +- SD over cycles', \\\n"
+            << "  '' index " << k << " using ($1*100):2 with lines lw 2 lc rgb '#08519c' title 'baseline: mean withheld gap', \\\n"
+            << "  '' index " << k << " using ($1*100):8 with lines lw 2 dt 2 lc rgb '#cb181d' title 'after selected effects', \\\n"
+            << "  0 with lines lc rgb 'black' notitle\n";
+    }
+    bands << "unset multiplot\n";
+    const int ns = std::min<int>(8, static_cast<int>(d.series.size()));
+    std::ostringstream fits;
+    fits << "set terminal pngcairo size 1000," << std::max(1, ns) * 260 << " font ',10' noenhanced\n"
+         << "set output '" << tg << "_fits.png.tmp'\nset multiplot layout " << std::max(1, ns) << ",1 title \""
+         << dq(banner(r) + tg +
+               " force: measured and withheld predictions, before and after")
+         << "\"\nset xlabel 's'\nset ylabel 'N'\nset grid\nset key outside right\n";
+    for (int k = 0; k < ns; ++k)
+      fits << "set title \"" << dq(d.series[k].trial) << "\"\nplot '" << tg << "_series.dat' index " << k
+           << " using 1:2 with lines lw 2 lc rgb 'black' title 'measured', '' index " << k
+           << " using 1:3 with lines lc rgb '#08519c' title 'baseline (" << dq(r.law) << ")', '' index " << k
+           << " using 1:4 with lines dt 2 lc rgb '#cb181d' title 'selected (" << dq(d.final_law) << ")'\n";
+    fits << "unset multiplot\n";
+    std::ostringstream rank;
+    rank << "set terminal pngcairo size 1000,640 font ',10' noenhanced\nset output '" << tg
+         << "_ranking.png.tmp'\nset multiplot layout 2,1 title \""
+         << dq(banner(r) + tg + " force: effects at step 1")
+         << "\"\nset style fill solid 0.8\nset boxwidth 0.7\nset xtics rotate by -30\nset grid ytics\n"
+            "set title 'screening score (z of the Lagrange multiplier statistic)'\nset ylabel 'z'\n"
+            "plot '" << tg << "_ranking.dat' using 0:2:xtic(1) with boxes lc rgb '#6baed6' notitle\n"
+            "set title 'withheld mean-square-error reduction of the fully fitted candidates'\nset ylabel '%'\n"
+            "plot '" << tg << "_ranking.dat' using 0:($3==$3?$3:0):xtic(1) with boxes lc rgb '#31a354' notitle\n"
+            "unset multiplot\n";
+    const std::pair<std::string, std::string> scripts[] = {
+        {tg + "_bands", bands.str()}, {tg + "_fits", fits.str()}, {tg + "_ranking", rank.str()}};
+    for (const auto& [name, text] : scripts) {
+      writeFileAtomically(directory + "/" + name + ".gp", [&](std::ostream& f) { f << text; });
+      written.push_back(name + ".gp");
+      if (!have_gnuplot) continue;
+      if (runGnuplot(o, directory, name + ".gp") && fs::exists(directory + "/" + name + ".png.tmp")) {
+        fs::rename(directory + "/" + name + ".png.tmp", directory + "/" + name + ".png");
+        written.push_back(name + ".png");
+        plots.push_back(name + ".png");
+      } else {
+        fs::remove(directory + "/" + name + ".png.tmp");
+        rep.notes.push_back("gnuplot failed on " + name + ".gp");
+      }
+    }
+  }
+  writeFileAtomically(directory + "/gap_report.json",
+                      [&](std::ostream& f) { f << toJson(rep, o.anchors).dump(2) << "\n"; });
+  writeFileAtomically(directory + "/gap_report.md",
+                      [&](std::ostream& f) { f << formatMarkdown(rep, plots, o.anchors); });
+  written.push_back("gap_report.json");
+  written.push_back("gap_report.md");
+  return written;
+}
+
+}  // namespace kneesim::gap

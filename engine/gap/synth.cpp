@@ -1,0 +1,374 @@
+#include "gap/synth.hpp"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <sstream>
+
+#include "core/strings.hpp"
+#include "gap/signals.hpp"
+
+namespace kneesim::gap {
+
+namespace {
+
+std::vector<double> smoothNoise(int n, double rate, double tau, std::mt19937_64& rng) {
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<double> w(n);
+  for (double& x : w) x = g(rng);
+  const double fc = std::min(1.0 / (2 * M_PI * tau), 0.45 * rate);
+  std::vector<double> s = lowPass(w, rate, fc);
+  double ss = 0;
+  for (double x : s) ss += x * x;
+  const double sd = std::sqrt(ss / std::max(1, n));
+  for (double& x : s) x = sd > 0 ? x / sd : 0.0;
+  return s;
+}
+
+bool isAreaChannel(const std::string& name) {
+  return name == "S" || name == "S_medial" || name == "S_lateral" || startsWith(name, "S@") ||
+         startsWith(name, "S_medial@") || startsWith(name, "S_lateral@");
+}
+
+}  // namespace
+
+std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                                          const std::vector<GapTrial>& sources, const SynthOptions& o) {
+  std::vector<Effect> used;
+  for (const auto& inj : o.effects) {
+    const Effect* e = nullptr;
+    for (const auto& c : catalogue)
+      if (c.getName() == inj.effect) e = &c;
+    if (!e) throw InputError({}, "synthetic effect: expected an effect of the catalogue, got '" + inj.effect + "'");
+    used.push_back(*e);
+  }
+  const identify::ContactLaw law = makeExtendedLaw(base, used);
+  Eigen::VectorXd p = law.getDefaultValues();
+  for (const auto& [name, v] : o.base_values) p[base.getParameterIndex(name)] = v;
+  for (size_t k = 0; k < o.effects.size(); ++k)
+    for (const auto& [name, v] : o.effects[k].values)
+      p[law.getParameterIndex(o.effects[k].effect + "." + name)] = v;
+  if (o.outside != "" && o.outside != "phase_bump")
+    throw InputError({}, "synthetic outside effect: expected '' or 'phase_bump', got '" + o.outside + "'");
+
+  std::mt19937_64 rng(o.seed);
+  std::vector<GapTrial> out;
+  for (const auto& src : sources) {
+    for (int r = 0; r < o.replicates; ++r) {
+      GapTrial g = src;
+      g.trial.name = src.trial.name + "_r" + std::to_string(r + 1);
+      g.notes.push_back("SYNTHETIC: replicate " + std::to_string(r + 1) + " of '" + src.trial.name + "'");
+      const std::vector<double>& t = g.trial.time;
+      const int n = g.getNumFrames();
+      const double rate = n > 1 ? (n - 1) / (t.back() - t.front()) : 120.0;
+      auto& ch = g.trial.channels;
+      // Smooth between-replicate variation: one factor for all areas (they vary together), one
+      // offset for the flexion, one factor for the external load and the EMG.
+      const std::vector<double> xa = smoothNoise(n, rate, 0.15, rng), xf = smoothNoise(n, rate, 0.2, rng),
+                                xl = smoothNoise(n, rate, 0.15, rng);
+      for (auto& [name, v] : ch) {
+        if (isAreaChannel(name)) {
+          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
+        } else if (name == "dS_dflexion" || name == "dS_dap") {
+          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
+        } else if (name == "knee_flexion") {
+          for (int i = 0; i < n; ++i) v[i] += o.flexion_variation * xf[i];
+        } else if (startsWith(name, "GRF:") || startsWith(name, "EMG:")) {
+          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.load_variation * xl[i]);
+        }
+      }
+      // Rates consistent with the varied channels.
+      for (const char* s : {"S", "S_medial", "S_lateral"}) {
+        if (!ch.count(s)) continue;
+        const std::string d = std::string(s) == "S" ? "dS_dt" : "d" + std::string(s) + "_dt";
+        ch[d] = derivative(t, lowPass(ch[s], rate, std::min(10.0, 0.45 * rate)));
+      }
+      if (ch.count("knee_flexion"))
+        ch["knee_flexion_rate"] = derivative(t, lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate)));
+
+      const identify::LawInputs in(law, ch, t, g.trial.name);
+      Eigen::VectorXd f;
+      law.calcForce(p, in, f);
+      const std::vector<double> noise = smoothNoise(n, rate, o.noise_time, rng);
+      std::normal_distribution<double> white(0.0, 1.0);
+      for (int i = 0; i < n; ++i) {
+        double v = f[i] + o.noise_sd * noise[i] + o.white_sd * white(rng);
+        if (o.outside == "phase_bump" && std::isfinite(g.cycle_phase[i])) {
+          const double x = (g.cycle_phase[i] - 0.30) / 0.06;
+          v += o.outside_size * std::exp(-x * x);
+        }
+        g.trial.measured_force[i] = v;
+      }
+      // Compartment forces: the total split by each compartment's Hertz share.
+      if (ch.count("S_medial") && ch.count("S_lateral")) {
+        for (int i = 0; i < n; ++i) {
+          const double a = std::pow(std::max(ch["S_medial"][i], 0.0), 1.5),
+                       b = std::pow(std::max(ch["S_lateral"][i], 0.0), 1.5);
+          const double share = a + b > 0 ? a / (a + b) : 0.5;
+          g.medial[i] = share * g.trial.measured_force[i];
+          g.lateral[i] = (1 - share) * g.trial.measured_force[i];
+        }
+      }
+      out.push_back(std::move(g));
+    }
+  }
+  return out;
+}
+
+std::map<std::string, double> fitSyntheticBaseline(const identify::ContactLaw& base,
+                                                   const std::vector<GapTrial>& sources,
+                                                   const identify::FitOptions& options) {
+  std::vector<identify::Trial> trials;
+  for (const auto& g : sources) trials.push_back(g.trial);
+  identify::FitOptions fo = options;
+  fo.confidence.profile = false;
+  fo.confidence.asymptotic = false;
+  fo.confidence.bootstrap_samples = 0;
+  fo.phases.clear();
+  const identify::FitReport r = identify::fit(base, trials, fo);
+  std::map<std::string, double> v;
+  for (const auto& p : r.parameters) v[p.name] = p.value;
+  return v;
+}
+
+double estimateBetweenCycleScatter(const std::vector<GapTrial>& trials, int bins) {
+  // activity -> bin -> one mean per cycle
+  std::map<std::string, std::vector<std::vector<double>>> per;
+  for (const auto& g : trials) {
+    auto& act = per[g.activity];
+    act.resize(bins);
+    for (size_t c = 0; c < g.cycles.size(); ++c) {
+      std::vector<double> sum(bins, 0.0);
+      std::vector<int> cnt(bins, 0);
+      for (int i = 0; i < g.getNumFrames(); ++i) {
+        if (g.cycle_index[i] != static_cast<int>(c) || !std::isfinite(g.cycle_phase[i])) continue;
+        const int b = std::min(bins - 1, static_cast<int>(g.cycle_phase[i] * bins));
+        sum[b] += g.trial.measured_force[i];
+        ++cnt[b];
+      }
+      for (int b = 0; b < bins; ++b)
+        if (cnt[b] > 0) act[b].push_back(sum[b] / cnt[b]);
+    }
+  }
+  double ss = 0;
+  int dof = 0;
+  for (const auto& [name, act] : per)
+    for (const auto& v : act) {
+      if (v.size() < 2) continue;
+      double m = 0;
+      for (double x : v) m += x;
+      m /= v.size();
+      for (double x : v) ss += (x - m) * (x - m);
+      dof += static_cast<int>(v.size()) - 1;
+    }
+  return dof > 0 ? std::sqrt(ss / dof) : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::vector<BlindCase> getDefaultBlindCases() {
+  // Sizes chosen so that each effect changes the force by roughly the noise level (100 N) or more
+  // once the baseline has absorbed what it can; BlindOutcome::injected_rms reports the change.
+  auto one = [](const std::string& effect, const std::string& param, double v) {
+    BlindCase c;
+    c.name = effect;
+    c.effects = {{effect, {{param, v}}}};
+    c.expected = effect;
+    return c;
+  };
+  std::vector<BlindCase> v;
+  BlindCase nothing;
+  nothing.name = "nothing";
+  nothing.expected = "baseline";
+  v.push_back(nothing);
+  v.push_back(one("exponent", "dm", 0.7));
+  v.push_back(one("radius_flexion", "rho", 0.8));
+  v.push_back(one("ml_compartments", "delta", 0.6));
+  v.push_back(one("rate", "tau", 0.08));
+  v.push_back(one("time_delay", "delay", 0.03));
+  v.push_back(one("creep", "kappa", 0.9));
+  v.push_back(one("flexion_offset", "offset", 0.07));
+  v.push_back(one("flexion_gain", "gain", 0.2));
+  v.push_back(one("ap_translation", "shift", 0.003));
+  v.push_back(one("threshold", "dh", 0.0005));
+  v.push_back(one("grf_load", "gain", 0.6));
+  v.push_back(one("emg_cocontraction", "gain", 1200));
+  v.push_back(one("adhesion_jkr", "psi", 3.5e5));
+  BlindCase bump;
+  bump.name = "phase_bump (outside)";
+  bump.outside = "phase_bump";
+  bump.outside_size = 600;
+  bump.expected = "none of the candidates";
+  v.push_back(bump);
+  return v;
+}
+
+std::vector<const BlindOutcome*> BlindSuiteResult::getOutcomes(const std::string& case_name) const {
+  std::vector<const BlindOutcome*> v;
+  for (const auto& o : outcomes)
+    if (o.case_name == case_name) v.push_back(&o);
+  return v;
+}
+
+std::string BlindSuiteResult::formatMarkdown() const {
+  std::ostringstream s;
+  auto shortName = [](const std::string& c) {
+    if (c == "none of the candidates") return std::string("none");
+    return c;
+  };
+  s << "| injected \\ named first |";
+  for (const auto& c : columns) s << " " << shortName(c) << " |";
+  s << " correct | RMS change (N) | size in CI (jackknife / asymptotic) |\n|---|";
+  for (size_t k = 0; k < columns.size(); ++k) s << "---:|";
+  s << "---:|---:|---|\n";
+  for (size_t r = 0; r < rows.size(); ++r) {
+    s << "| " << rows[r] << " |";
+    for (size_t k = 0; k < columns.size(); ++k) {
+      const int n = counts[r][k];
+      s << " " << (n ? std::to_string(n) : std::string(".")) << " |";
+    }
+    const auto outs = getOutcomes(rows[r]);
+    int ok = 0, est = 0, cj = 0, ca = 0;
+    std::vector<double> rms;
+    for (const auto* o : outs) {
+      ok += o->correct;
+      rms.push_back(o->injected_rms);
+      if (o->has_estimate) ++est, cj += o->covered_jackknife, ca += o->covered;
+    }
+    std::sort(rms.begin(), rms.end());
+    std::ostringstream med;
+    med.precision(3);
+    med << (rms.empty() ? 0.0 : rms[rms.size() / 2]);
+    s << " " << ok << "/" << outs.size() << " | " << med.str() << " | ";
+    if (est) s << cj << "/" << est << " / " << ca << "/" << est;
+    else s << "-";
+    s << " |\n";
+  }
+  return s.str();
+}
+
+BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds) {
+  BlindSuiteOptions bo;
+  bo.seeds = seeds;
+  bo.synth.replicates = 3;
+  bo.synth.noise_sd = 100;
+  bo.diagnosis.fit = fit;
+  bo.diagnosis.fit.confidence.profile = false;
+  bo.diagnosis.fit.confidence.bootstrap_samples = 0;
+  bo.diagnosis.targets = {"total"};
+  bo.diagnosis.cv_folds = 5;
+  bo.diagnosis.screen_top = 3;
+  bo.diagnosis.max_effects = 2;
+  bo.diagnosis.where = false;
+  bo.diagnosis.shrinkage = false;
+  return bo;
+}
+
+BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                               const std::vector<GapTrial>& sources, const BlindSuiteOptions& bo) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<BlindCase> cases = bo.cases.empty() ? getDefaultBlindCases() : bo.cases;
+  BlindSuiteResult res;
+  for (const auto& e : catalogue) res.columns.push_back(e.getName());
+  res.columns.push_back("baseline");
+  res.columns.push_back("none of the candidates");
+  const int total = static_cast<int>(cases.size()) * bo.seeds;
+  std::vector<BlindOutcome> outcomes(total);
+  auto runOne = [&](int item) {
+    const size_t ci = static_cast<size_t>(item / bo.seeds);
+    const int seed = item % bo.seeds + 1;
+    const BlindCase& bc = cases[ci];
+    SynthOptions so = bo.synth;
+    so.effects = bc.effects;
+    so.outside = bc.outside;
+    so.outside_size = bc.outside_size;
+    // Each case draws its own noise: one unlucky draw must not decide every case of a seed.
+    so.seed = static_cast<unsigned long long>(seed) + 1000003ULL * ci;
+    const std::vector<GapTrial> trials = makeSyntheticTrials(base, catalogue, sources, so);
+    // The injected component's size: the same trials without noise, with and without it.
+    SynthOptions clean = so;
+    clean.noise_sd = clean.white_sd = 0;
+    SynthOptions plain = clean;
+    plain.effects.clear();
+    plain.outside.clear();
+    const auto with = makeSyntheticTrials(base, catalogue, sources, clean);
+    const auto without = makeSyntheticTrials(base, catalogue, sources, plain);
+    double ss = 0;
+    long n = 0;
+    for (size_t t = 0; t < with.size(); ++t)
+      for (size_t i = 0; i < with[t].trial.measured_force.size(); ++i) {
+        const double d = with[t].trial.measured_force[i] - without[t].trial.measured_force[i];
+        ss += d * d;
+        ++n;
+      }
+    BlindOutcome& out = outcomes[item];
+    out.case_name = bc.name;
+    out.expected = bc.expected;
+    out.seed = static_cast<unsigned long long>(seed);
+    out.injected_rms = n ? std::sqrt(ss / n) : 0.0;
+    const GapReport rep = diagnose(base, catalogue, trials, bo.diagnosis);
+    const TargetDiagnosis& d = rep.targets.front();
+    out.answer = d.verdict == "baseline" || d.verdict == "none of the candidates" ? d.verdict : d.selected.front();
+    out.correct = out.answer == bc.expected;
+    out.rmse_baseline = d.baseline_rmse_heldout;
+    out.rmse_final = d.shrinkage.front().rmse_final;
+    if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {
+      const auto& [pname, truth] = *bc.effects[0].values.begin();
+      out.truth = truth;
+      for (const auto& cf : d.candidates) {
+        if (cf.step != 1 || cf.effect != bc.effects[0].effect) continue;
+        for (const auto& p : cf.parameters)
+          if (p.name == bc.effects[0].effect + "." + pname) {
+            out.has_estimate = true;
+            out.estimate = p.value;
+            out.ci = p.ci;
+            out.ci_jackknife = p.ci_jackknife;
+            out.covered = p.ci.isValid() && p.ci.lower <= truth && truth <= p.ci.upper;
+            out.covered_jackknife =
+                p.ci_jackknife.isValid() && p.ci_jackknife.lower <= truth && truth <= p.ci_jackknife.upper;
+          }
+      }
+    }
+  };
+  std::atomic<int> next{0}, done{0};
+  std::mutex progress_mutex;
+  std::exception_ptr failure;
+  auto worker = [&] {
+    for (int item; (item = next++) < total;) {
+      try {
+        runOne(item);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        if (!failure) failure = std::current_exception();
+        next = total;
+      }
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      if (bo.progress) bo.progress(++done, total);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 1; k < std::max(1, bo.threads); ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
+  for (const auto& bc : cases) {
+    res.rows.push_back(bc.name);
+    res.counts.emplace_back(res.columns.size(), 0);
+  }
+  for (const auto& out : outcomes) {
+    const size_t row = std::find(res.rows.begin(), res.rows.end(), out.case_name) - res.rows.begin();
+    const auto col = std::find(res.columns.begin(), res.columns.end(), out.answer) - res.columns.begin();
+    if (col < static_cast<long>(res.columns.size())) ++res.counts[row][col];
+  }
+  res.outcomes = std::move(outcomes);
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return res;
+}
+
+}  // namespace kneesim::gap

@@ -1,0 +1,135 @@
+#pragma once
+// Synthetic trials with known hidden effects, for testing the gap diagnosis blind.
+//
+// Each synthetic recording starts from a real recording's inputs (contact areas, flexion, GRF,
+// EMG: from the contact-area tool's files, or the interim stand-in of interim_inputs.hpp), varied
+// smoothly between replicates the way repeated trials vary, and gets a "measured" force made by
+// the baseline law at chosen parameters, extended by chosen effects at chosen sizes (or by a force
+// component outside the catalogue), plus noise at the real between-trial level: smooth noise of
+// the measured force's between-cycle scatter and a small white part.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <functional>
+
+#include "gap/diagnosis.hpp"
+#include "gap/effect.hpp"
+#include "gap/trial_inputs.hpp"
+
+namespace kneesim::gap {
+
+/// An effect injected into synthetic trials: its name and the values of its parameters (others at
+/// their defaults).
+struct InjectedEffect {
+  std::string effect;
+  std::map<std::string, double> values;
+};
+
+/// How synthetic trials are made.
+struct SynthOptions {
+  /// Baseline parameter values (others at the law's defaults), e.g. {"E", 2e7}.
+  std::map<std::string, double> base_values;
+  std::vector<InjectedEffect> effects;  ///< Injected catalogue effects (may be empty).
+  /// A force component outside the catalogue: "" (none) or "phase_bump", a Gaussian bump of
+  /// outside_size N centred at 30 % of every cycle (width 6 % of the cycle), locked to the cycle
+  /// and unrelated to any input channel.
+  std::string outside;
+  double outside_size = 0;
+  double noise_sd = 100;          ///< N: smooth noise (between-cycle scatter of ngait_og3: 105 N).
+  double noise_time = 0.05;       ///< s: its correlation time.
+  double white_sd = 5;            ///< N: white measurement noise.
+  int replicates = 3;             ///< Synthetic recordings per source recording.
+  double area_variation = 0.05;   ///< Relative SD of the smooth factor on the areas between replicates.
+  double flexion_variation = 0.03;  ///< rad: SD of a smooth offset on the flexion between replicates.
+  double load_variation = 0.05;   ///< Relative SD of the smooth factor on GRF and EMG between replicates.
+  unsigned long long seed = 1;
+};
+
+/// Synthetic recordings from @p sources (each replicated options.replicates times, named
+/// "<source>_r<k>"): channels varied smoothly, cycles kept, measured total force from @p base
+/// extended by the injected effects (found in @p catalogue by name), medial/lateral split by the
+/// compartments' Hertz shares. Throws InputError for an unknown effect or parameter, or a source
+/// lacking a channel an injected effect needs.
+std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                                          const std::vector<GapTrial>& sources, const SynthOptions& options);
+
+/// The baseline parameters of synthetic trials: @p base fitted (identify::fit with @p options, no
+/// intervals) to the measured forces of @p sources, so synthetic forces have the real magnitude.
+std::map<std::string, double> fitSyntheticBaseline(const identify::ContactLaw& base,
+                                                   const std::vector<GapTrial>& sources,
+                                                   const identify::FitOptions& options);
+
+/// The between-cycle scatter of the measured force: for each activity, the force over the
+/// normalised cycle in @p bins bins per cycle, the SD across cycles in each bin, pooled (RMS) over
+/// bins and activities. NaN when no activity has two cycles covering a bin.
+double estimateBetweenCycleScatter(const std::vector<GapTrial>& trials, int bins = 20);
+
+/// One case of the blind test: what is injected and what the diagnosis should answer.
+struct BlindCase {
+  std::string name;          ///< Row label, e.g. "time_delay" or "nothing".
+  std::vector<InjectedEffect> effects;  ///< Injected catalogue effects (empty: none).
+  std::string outside;       ///< A force component outside the catalogue (SynthOptions::outside).
+  double outside_size = 0;
+  /// The right answer: an effect name, "baseline" or "none of the candidates".
+  std::string expected;
+};
+
+/// The default cases: nothing injected, each catalogued effect alone at a size whose force change
+/// is comparable to the noise, and a force bump locked to the cycle (outside the catalogue).
+std::vector<BlindCase> getDefaultBlindCases();
+
+/// One blind diagnosis.
+struct BlindOutcome {
+  std::string case_name, expected;
+  unsigned long long seed = 0;
+  std::string answer;        ///< The first selected effect, "baseline" or "none of the candidates".
+  bool correct = false;
+  double injected_rms = 0;   ///< RMS force change the injected component makes on the noise-free trials, N.
+  double rmse_baseline = 0;  ///< Held-out RMSE of the baseline, N.
+  double rmse_final = 0;     ///< Held-out RMSE of the selected model, N.
+  /// For a single injected effect: its first parameter's true value, estimate (the fit of the
+  /// baseline plus that effect at the first selection step) and intervals.
+  double truth = 0, estimate = 0;
+  identify::Interval ci, ci_jackknife;
+  bool covered = false, covered_jackknife = false;
+  bool has_estimate = false;
+};
+
+/// Outcomes of the blind suite and their confusion matrix.
+struct BlindSuiteResult {
+  std::vector<BlindOutcome> outcomes;
+  std::vector<std::string> rows;     ///< Case names, in order.
+  std::vector<std::string> columns;  ///< Answers: every effect, "baseline", "none of the candidates".
+  std::vector<std::vector<int>> counts;  ///< [row][column].
+  double seconds = 0;
+  /// Outcomes of one case.
+  std::vector<const BlindOutcome*> getOutcomes(const std::string& case_name) const;
+  /// The confusion matrix as a Markdown table, with per-case accuracy and interval coverage.
+  std::string formatMarkdown() const;
+};
+
+/// How the blind suite runs.
+struct BlindSuiteOptions {
+  std::vector<BlindCase> cases;      ///< Empty: getDefaultBlindCases().
+  int seeds = 20;                    ///< Seeds per case (1..seeds).
+  SynthOptions synth;                ///< Baseline values, noise, replicates (effects/outside/seed are set per case).
+  DiagnosisOptions diagnosis;        ///< Diagnosis settings (run blind: it is not told the case).
+  /// Worker threads (Ipopt solves still run one at a time; the rest overlaps). Results do not
+  /// depend on it.
+  int threads = 2;
+  std::function<void(int done, int total)> progress;
+};
+
+/// The blind suite's standard settings around a baseline identification @p fit: @p seeds seeds,
+/// three replicates per source, noise 100 N, 5-fold cross-validation, top 3 screened, at most 2
+/// effects, no where-analysis and no leave-one-activity-out (not needed for the verdict), baseline
+/// intervals off. `kneesim synth --blind-suite` and tests/gap/blind_suite_test.cpp both use it.
+BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds = 20);
+
+/// Makes synthetic trials for every case and seed from @p sources and diagnoses them blind.
+BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                               const std::vector<GapTrial>& sources, const BlindSuiteOptions& options);
+
+}  // namespace kneesim::gap

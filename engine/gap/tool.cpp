@@ -1,0 +1,201 @@
+#include "gap/tool.hpp"
+
+#include <filesystem>
+#include <set>
+
+#include "core/strings.hpp"
+#include "core/xml.hpp"
+#include "plugin/registry.hpp"
+
+namespace kneesim::gap {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string resolve(const std::string& dir, const std::string& p) {
+  if (p.empty() || fs::path(p).is_absolute()) return p;
+  return (fs::path(dir) / p).lexically_normal().string();
+}
+
+// "name value name value ..." into a map; fails on an odd count or a non-number.
+std::map<std::string, double> pairs(const xml::Node& n) {
+  std::map<std::string, double> m;
+  const auto w = n.toWords();
+  if (w.size() % 2) n.fail("expected pairs of a parameter name and a value, got " + std::to_string(w.size()) + " words");
+  for (size_t k = 0; k < w.size(); k += 2) {
+    double v;
+    if (!tryParseDouble(w[k + 1], v)) n.fail("expected a number after '" + w[k] + "', got '" + w[k + 1] + "'");
+    m[w[k]] = v;
+  }
+  return m;
+}
+
+std::string join(const std::set<std::string>& s) {
+  std::string o;
+  for (const auto& x : s) o += (o.empty() ? "" : ", ") + x;
+  return o;
+}
+
+TrialSource readTrial(const xml::Node& t, const std::string& dir) {
+  static const std::set<std::string> known = {"knee_forces", "contact_area",   "c3d",        "kinematics",
+                                              "flexion_column", "flexion_source", "events", "event_times",
+                                              "time_range",  "gon_calibration"};
+  for (const xml::Node& c : t.children())
+    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known) + ")");
+  TrialSource s;
+  s.where = t.where();
+  s.name = t.nameAttr();
+  if (s.name.empty()) t.fail("expected a name attribute on <Trial>");
+  s.activity = t.attr("activity").value_or("gait");
+  s.knee_forces = resolve(dir, t.childText("knee_forces"));
+  if (s.knee_forces.empty()) t.fail("missing <knee_forces>");
+  s.contact_area = resolve(dir, t.childText("contact_area"));
+  if (s.contact_area.empty()) t.fail("missing <contact_area> (the contact-area tool's .sto for this trial)");
+  s.c3d = resolve(dir, t.childText("c3d"));
+  s.kinematics = resolve(dir, t.childText("kinematics"));
+  s.flexion_column = t.childText("flexion_column", s.flexion_column);
+  s.flexion_source = t.childText("flexion_source", s.flexion_source);
+  s.events = t.childText("events", s.events);
+  if (xml::Node e = t.child("event_times"); e && !e.text().empty()) s.event_times = e.toDoubles();
+  if (xml::Node r = t.child("time_range"); r && !r.text().empty()) {
+    const auto v = r.toDoubles();
+    if (v.size() != 2 || !(v[0] < v[1])) r.fail("expected two increasing times (start end), got '" + r.text() + "'");
+    s.time_range = {v[0], v[1]};
+  }
+  if (xml::Node g = t.child("gon_calibration"); g && !g.text().empty()) {
+    const auto v = g.toDoubles();
+    if (v.size() != 2) g.fail("expected 2 numbers (degrees per volt, offset in degrees), got " + std::to_string(v.size()));
+    s.gon_scale = v[0];
+    s.gon_offset = v[1];
+  }
+  return s;
+}
+
+}  // namespace
+
+GapSetup readGapSetup(const std::string& path) {
+  auto doc = xml::Document::load(path);
+  xml::Node root = doc->root();
+  xml::Node tool = root;
+  if (root.name() == "OpenSimDocument") tool = root.child("GapTool");
+  if (!tool || tool.name() != "GapTool") root.fail("expected a <GapTool> element, got <" + root.name() + ">");
+  const std::string dir = fs::path(path).parent_path().string();
+  static const std::set<std::string> known = {
+      "results_directory", "plugins",     "law",          "free_parameters", "assumed_values", "parameter_values",
+      "effects",           "targets",     "body_mass",    "cv_folds",        "screen_top",     "max_effects",
+      "alpha",             "structure_alpha", "min_relative_improvement", "confidence_level", "bootstrap_samples",
+      "plots",             "emg_flexors", "emg_extensors", "trials"};
+  for (const xml::Node& c : tool.children())
+    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known) + ")");
+  GapSetup s;
+  s.setup_file = path;
+  s.name = tool.nameAttr().empty() ? "gap" : tool.nameAttr();
+  s.results_directory = resolve(dir, tool.childText("results_directory", s.name + "_results"));
+  if (xml::Node p = tool.child("plugins")) s.plugins = p.toWords();
+  s.law = tool.childText("law", s.law);
+  if (xml::Node e = tool.child("effects")) {
+    s.effects = e.toWords();
+    if (s.effects.size() == 1 && s.effects[0] == "all") s.effects.clear();
+  }
+  DiagnosisOptions& o = s.options;
+  o.fit.where = tool.where();
+  if (xml::Node f = tool.child("free_parameters")) o.fit.free_parameters = f.toWords();
+  if (xml::Node a = tool.child("assumed_values")) o.fit.assumed_values = pairs(a);
+  if (xml::Node v = tool.child("parameter_values")) o.fit.parameter_values = pairs(v);
+  if (xml::Node t = tool.child("targets")) o.targets = t.toWords();
+  o.fit.body_mass = tool.childDouble("body_mass", 0.0);
+  if (!(o.fit.body_mass >= 0)) tool.child("body_mass").fail("expected a mass >= 0 kg");
+  auto integer = [&](const char* tag, int fallback, int lo) {
+    xml::Node n = tool.child(tag);
+    if (!n || n.text().empty()) return fallback;
+    const long v = n.toInt();
+    if (v < lo) n.fail("expected an integer >= " + std::to_string(lo) + ", got " + n.text());
+    return static_cast<int>(v);
+  };
+  auto fraction = [&](const char* tag, double fallback) {
+    xml::Node n = tool.child(tag);
+    if (!n || n.text().empty()) return fallback;
+    const double v = n.toDouble();
+    if (!(v > 0 && v < 1)) n.fail("expected a value in (0, 1), got " + n.text());
+    return v;
+  };
+  o.cv_folds = integer("cv_folds", 0, 0);
+  o.screen_top = integer("screen_top", o.screen_top, 1);
+  o.max_effects = integer("max_effects", o.max_effects, 0);
+  o.alpha = fraction("alpha", o.alpha);
+  o.structure_alpha = fraction("structure_alpha", o.structure_alpha);
+  o.min_relative_improvement = fraction("min_relative_improvement", o.min_relative_improvement);
+  o.level = fraction("confidence_level", o.level);
+  o.fit.confidence.level = o.level;
+  o.fit.confidence.bootstrap_samples = integer("bootstrap_samples", o.fit.confidence.bootstrap_samples, 0);
+  s.report.plots = tool.childBool("plots", true);
+  TrialSource defaults;
+  const auto flexors = tool.child("emg_flexors") ? tool.child("emg_flexors").toWords() : defaults.emg_flexors;
+  const auto extensors = tool.child("emg_extensors") ? tool.child("emg_extensors").toWords() : defaults.emg_extensors;
+  xml::Node trials = tool.child("trials");
+  if (!trials) tool.fail("missing <trials>");
+  for (const xml::Node& t : trials.children()) {
+    if (t.name() != "Trial") t.fail("unknown element <" + t.name() + "> in trials (expected Trial)");
+    TrialSource ts = readTrial(t, dir);
+    ts.emg_flexors = flexors;
+    ts.emg_extensors = extensors;
+    s.trials.push_back(ts);
+  }
+  if (s.trials.empty()) trials.fail("expected at least one <Trial>, got none");
+  return s;
+}
+
+void setContactAreaDirectory(GapSetup& setup, const std::string& directory) {
+  for (auto& t : setup.trials) t.contact_area = (fs::path(directory) / fs::path(t.contact_area).filename()).string();
+}
+
+GapRunResult runGap(const GapSetup& s, const std::function<void(const std::string&)>& log) {
+  auto say = [&](const std::string& m) {
+    if (log) log(m);
+  };
+  plugin::Registry registry;
+  const SourceLocation where{s.setup_file, 0, "GapTool/plugins"};
+  for (const auto& p : s.plugins) registry.loadPlugin(p, where);
+  const identify::ContactLaw law = identify::ContactLaw::fromRegistry(registry, s.law, {s.setup_file, 0, "GapTool/law"});
+  std::vector<Effect> catalogue;
+  const std::vector<std::string> names = s.effects.empty() ? registry.getEffectNames() : s.effects;
+  for (const auto& n : names) catalogue.push_back(Effect::fromRegistry(registry, n, {s.setup_file, 0, "GapTool/effects"}));
+  std::vector<GapTrial> trials;
+  for (const auto& t : s.trials) {
+    say("assembling trial " + t.name);
+    trials.push_back(assembleTrial(t));
+  }
+  GapRunResult res;
+  res.dead_emg = normalizeEmg(trials, s.trials.front().emg_flexors, s.trials.front().emg_extensors);
+  say("diagnosing " + std::to_string(trials.size()) + " trial(s) against " + std::to_string(catalogue.size()) +
+      " effect(s)");
+  res.report = diagnose(law, catalogue, trials, s.options);
+  for (const auto& g : trials)
+    for (const auto& n : g.notes) res.report.notes.push_back(g.trial.name + ": " + n);
+  if (!res.dead_emg.empty()) {
+    std::string d;
+    for (const auto& x : res.dead_emg) d += (d.empty() ? "" : ", ") + x;
+    res.report.notes.push_back("EMG channels dropped as dead (peak-to-peak below 0.1 V in some trial): " + d);
+  }
+  res.directory = s.results_directory;
+  say("writing the report into " + res.directory);
+  res.files = writeGapReport(res.directory, res.report, s.report);
+  return res;
+}
+
+void printGapSummary(const GapRunResult& r, std::ostream& out) {
+  if (r.report.interim_inputs) out << "INTERIM INPUTS - not a real-data result\n";
+  out << "gap diagnosis of " << r.report.law << " on " << r.report.trials.size() << " trial(s), " << r.report.cycles
+      << " cycles (" << r.report.cv_scheme << ")\n";
+  const double bwN = r.report.body_mass * identify::kStandardGravity;
+  for (const auto& d : r.report.targets) {
+    out << "  " << d.target << ": " << d.verdict << "; withheld RMSE " << d.baseline_rmse_heldout << " N";
+    if (bwN > 0) out << " (" << d.baseline_rmse_heldout / bwN << " BW)";
+    if (!d.shrinkage.empty()) out << " -> " << d.shrinkage[0].rmse_final << " N with " << d.final_law;
+    out << "\n";
+  }
+  out << "  report: " << r.directory << "/gap_report.md (and gap_report.json)\n";
+}
+
+}  // namespace kneesim::gap

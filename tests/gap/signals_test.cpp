@@ -1,0 +1,113 @@
+#include "gap/signals.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace kneesim::gap {
+namespace {
+
+// A second-order Butterworth run forwards and backwards has gain 1 / (1 + (w / wc)^4) with the
+// bilinear transform's pre-warped frequencies w = tan(pi f / fs).
+double filtfiltGain(double f, double fs, double fc) {
+  const double r = std::tan(M_PI * f / fs) / std::tan(M_PI * fc / fs);
+  return 1 / (1 + std::pow(r, 4));
+}
+
+TEST(Signals, LowPassGainMatchesTheButterworthResponse) {
+  const double fs = 120, fc = 6;
+  for (double f : {1.0, 6.0, 20.0}) {
+    std::vector<double> x;
+    for (int i = 0; i < 1200; ++i) x.push_back(std::sin(2 * M_PI * f * i / fs));
+    const std::vector<double> y = lowPass(x, fs, fc);
+    double amp = 0;  // amplitude away from the ends
+    for (int i = 300; i < 900; ++i) amp = std::max(amp, std::abs(y[i]));
+    EXPECT_NEAR(amp, filtfiltGain(f, fs, fc), 2e-3) << f << " Hz";
+  }
+}
+
+TEST(Signals, IsotonicRegressionByHandAndAgainstBruteForce) {
+  // Pool-adjacent-violators by hand: 1 3 2 4 -> 1 2.5 2.5 4, SSE 0.5.
+  const IsotonicFit f = fitIsotonic({1, 2, 3, 4}, {1, 3, 2, 4});
+  EXPECT_EQ(f.x, (std::vector<double>{1, 2, 3, 4}));
+  EXPECT_EQ(f.y, (std::vector<double>{1, 2.5, 2.5, 4}));
+  EXPECT_NEAR(f.sse, 0.5, 1e-12);
+  EXPECT_DOUBLE_EQ(f.evaluate(0), 1);
+  EXPECT_DOUBLE_EQ(f.evaluate(1.5), 1.75);
+  EXPECT_DOUBLE_EQ(f.evaluate(2.7), 2.5);
+  // Ties pool before anything else: y = 3 and 1 at x = 2 make one block of 2.
+  const IsotonicFit t = fitIsotonic({1, 2, 2, 3}, {0, 3, 1, 5});
+  EXPECT_EQ(t.y, (std::vector<double>{0, 2, 5}));
+  // Random data: the fit is monotone and no monotone step function on the same points does better
+  // (brute force over every assignment to 4 levels of 7 points is too many; compare with the best
+  // of 20000 random monotone fits and with the constant fit).
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<double> x, y;
+  for (int i = 0; i < 7; ++i) x.push_back(i), y.push_back(0.3 * i + g(rng));
+  const IsotonicFit h = fitIsotonic(x, y);
+  for (size_t k = 1; k < h.y.size(); ++k) EXPECT_GE(h.y[k], h.y[k - 1]);
+  double best = 1e300;
+  std::uniform_real_distribution<double> u(-3, 5);
+  for (int trial = 0; trial < 20000; ++trial) {
+    std::vector<double> v(7);
+    for (auto& a : v) a = u(rng);
+    std::sort(v.begin(), v.end());
+    double sse = 0;
+    for (int i = 0; i < 7; ++i) sse += (y[i] - v[i]) * (y[i] - v[i]);
+    best = std::min(best, sse);
+  }
+  EXPECT_LE(h.sse, best);
+  double sse_fit = 0;
+  for (int i = 0; i < 7; ++i) sse_fit += (y[i] - h.evaluate(x[i])) * (y[i] - h.evaluate(x[i]));
+  EXPECT_NEAR(sse_fit, h.sse, 1e-9);
+}
+
+TEST(Signals, DistributionsAgainstTables) {
+  EXPECT_NEAR(normalQuantile(0.975), 1.959964, 1e-6);
+  EXPECT_NEAR(studentQuantile(0.975, 5), 2.570582, 1e-6);
+  EXPECT_NEAR(studentQuantile(0.95, 1), 6.313752, 1e-5);
+  EXPECT_NEAR(studentCdf(0, 3), 0.5, 1e-12);
+  EXPECT_NEAR(chiSquareSurvival(3.841459, 1), 0.05, 1e-6);
+  EXPECT_NEAR(chiSquareSurvival(18.307038, 10), 0.05, 1e-6);
+  EXPECT_NEAR(chiSquareSurvival(0.5, 2), std::exp(-0.25), 1e-12);  // dof 2: exp(-x/2)
+  const MeanInterval m = meanInterval({1, 2, 3, 4});
+  EXPECT_DOUBLE_EQ(m.mean, 2.5);
+  EXPECT_NEAR(m.sd, 1.2909944, 1e-7);
+  EXPECT_NEAR(m.upper - m.mean, 3.182446 * 1.2909944 / 2, 1e-5);
+  const MeanInterval w = weightedMeanInterval({1, 2, 3, 4}, {1, 1, 1, 1});
+  EXPECT_NEAR(w.upper, m.upper, 1e-9);
+  EXPECT_DOUBLE_EQ(effectiveCount({1, 1, 2}), 16.0 / 6.0);
+}
+
+TEST(Signals, CorrelationsDerivativesAndInterpolation) {
+  EXPECT_NEAR(pearson({1, 2, 3, 4}, {2, 4, 6, 8.0}), 1.0, 1e-12);
+  EXPECT_NEAR(pearson({1, 2, 3, 4}, {1, 3, 2, 4}), 0.8, 1e-12);
+  EXPECT_TRUE(std::isnan(pearson({1, 1, 1}, {1, 2, 3})));
+  EXPECT_DOUBLE_EQ(effectiveSampleSize(100, 0.5, 0.5), 100 * 0.75 / 1.25);
+  const auto ci = correlationInterval(0.5, 103);
+  EXPECT_NEAR(ci.first, std::tanh(std::atanh(0.5) - 1.959964 / 10), 1e-6);
+  const auto d = derivative({0, 1, 3}, {0, 1, 9});
+  EXPECT_DOUBLE_EQ(d[0], 1);
+  EXPECT_DOUBLE_EQ(d[1], 3);
+  EXPECT_DOUBLE_EQ(d[2], 4);
+  const auto v = interpolate({0, 1, 2}, {0, 10, 20}, {-0.1, 0.5, 1.5, 2.05, 3}, 0.1);
+  EXPECT_DOUBLE_EQ(v[0], 0);
+  EXPECT_DOUBLE_EQ(v[1], 5);
+  EXPECT_DOUBLE_EQ(v[2], 15);
+  EXPECT_DOUBLE_EQ(v[3], 20);
+  EXPECT_TRUE(std::isnan(v[4]));
+  // The envelope of a 100 Hz carrier modulated at 1 Hz follows the modulation (mean |sin| = 2/pi).
+  std::vector<double> emg;
+  for (int i = 0; i < 2400; ++i) {
+    const double t = i / 1200.0;
+    emg.push_back((1 + 0.5 * std::sin(2 * M_PI * t)) * std::sin(2 * M_PI * 100 * t) + 0.3);
+  }
+  const auto env = emgEnvelope(emg, 1200);
+  EXPECT_NEAR(env[300], (1 + 0.5) * 2 / M_PI, 0.03);  // t = 0.25 s, modulation peak
+  EXPECT_NEAR(env[900], (1 - 0.5) * 2 / M_PI, 0.03);  // t = 0.75 s, trough
+}
+
+}  // namespace
+}  // namespace kneesim::gap

@@ -1,0 +1,1 @@
+kneesim_add_benchmark(gap MODULES gap DEPENDS kneesim_hertz kneesim_gap_effects)
