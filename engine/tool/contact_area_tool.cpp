@@ -344,7 +344,7 @@ ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const Impla
     }
   } else {
     // Linear interpolation of the seating coordinates between the two nearest knots; the gaps of
-    // the interpolated pose are measured, not assumed (a search radius of 5 mm covers them).
+    // the interpolated pose are measured, not assumed (a search radius of 1 mm covers gaps of micrometres).
     double worst = 0;
     for (size_t j = 0; j < selected.size(); ++j) {
       size_t i = 0;
@@ -362,7 +362,7 @@ ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const Impla
       q.internal = (1 - a) * q0.internal + a * q1.internal;
       k.X_IF.push_back(seater.calcPose(selected[j], q));
       double gap[2];
-      seater.calcGaps(k.X_IF.back(), 5e-3, gap, nullptr);
+      seater.calcGaps(k.X_IF.back(), 1e-3, gap, nullptr);
       gap_m.push_back(gap[0]);
       gap_l.push_back(gap[1]);
       worst = std::max({worst, std::abs(gap[0]), std::abs(gap[1])});
