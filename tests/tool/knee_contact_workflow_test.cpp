@@ -295,6 +295,14 @@ TEST(KneeContactWorkflow, BadInputsAreOneLineErrors) {
   open.triangles.pop_back();
   io::writeStl(dir + "/open.stl", open);
   expectError(dir, replace(good, "ball.stl", "open.stl"), "open.stl");
+  // Non-manifold: a fin triangle on an edge of a closed sphere (the edge is shared by three
+  // triangles). Edges shared by four consistently oriented triangles (two sheets touching, as on
+  // JW's femoral component, stl_test) still bound a solid and are accepted.
+  io::TriangleMesh fin = test::makeSphere(Vector3d::Zero(), kBall, 20, 40);
+  fin.vertices.push_back(Vector3d(0, 0, 2 * kBall));
+  fin.triangles.push_back(Eigen::Vector3i(fin.triangles[100][0], fin.triangles[100][1], int(fin.vertices.size()) - 1));
+  io::writeStl(dir + "/fin.stl", fin);
+  expectError(dir, replace(good, "ball.stl", "fin.stl"), "mesh is not closed");
   io::writeStl(dir + "/ball_mm.stl", test::makeSphere(Vector3d::Zero(), kBall * 1000, 20, 40));
   expectError(dir, replace(good, "ball.stl", "ball_mm.stl"), "millimetres");
   // Forces: a missing load-cell channel; times that do not overlap the motion (the error comes
