@@ -1144,12 +1144,20 @@ void printWorkflowSummary(const WorkflowReport& r, std::ostream& os) {
   }
   os.unsetf(std::ios::fixed);
   os << std::setprecision(5);
+  const auto unit = [](const std::string& u) { return u.empty() || u == "1" ? std::string() : " " + u; };
   for (const auto& p : r.fit.parameters)
-    os << "  " << p.name << " = " << p.value << " " << p.unit << " (" << identify::toString(p.status)
+    os << "  " << p.name << " = " << p.value << unit(p.unit) << " (" << identify::toString(p.status)
        << (p.value_source.empty() ? "" : ", " + p.value_source) << ")\n";
   for (const auto& d : r.fit.derived) {
-    os << "  " << d.name << " = " << d.value << " " << d.unit;
-    if (d.ci_profile.isValid()) os << ", " << 100 * r.fit.confidence_level << "% profile CI [" << d.ci_profile.lower << ", " << d.ci_profile.upper << "]";
+    os << "  " << d.name << " = " << d.value << unit(d.unit);
+    // The bootstrap when there is one (it copes with serially correlated residuals), else the
+    // profile, else the asymptotic interval; all three are in summary.json.
+    const identify::Interval& ci = d.ci_bootstrap.isValid() ? d.ci_bootstrap
+                                   : d.ci_profile.isValid() ? d.ci_profile
+                                                            : d.ci_asymptotic;
+    const char* kind = d.ci_bootstrap.isValid() ? "bootstrap" : d.ci_profile.isValid() ? "profile" : "asymptotic";
+    if (ci.isValid())
+      os << ", " << 100 * r.fit.confidence_level << "% " << kind << " interval [" << ci.lower << ", " << ci.upper << "]";
     os << (d.identified ? "" : " (not identified)") << "\n";
   }
   for (const std::string& n : r.fit.notes) os << "  note: " << n << "\n";
