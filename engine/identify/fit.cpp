@@ -707,13 +707,16 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
           for (size_t s = 0; s < td.frames.size(); ++s) counts[td.offset + s] += 1;
         }
       } else {
+        // Circular blocks (Politis & Romano 1992): a block may wrap from the last frame to the
+        // first, so every frame is drawn equally often. Blocks that must fit inside the window
+        // under-sample its first and last frames and bias the estimate.
         for (const auto& td : tds2) {
           const int m = static_cast<int>(td.frames.size());
           const int len = std::min(block, m);
           int filled = 0;
           while (filled < m) {
-            const int start = draw(m - len + 1);
-            for (int s = 0; s < len && filled < m; ++s, ++filled) counts[td.offset + start + s] += 1;
+            const int start = draw(m);
+            for (int s = 0; s < len && filled < m; ++s, ++filled) counts[td.offset + (start + s) % m] += 1;
           }
         }
       }

@@ -30,7 +30,7 @@ struct ConfidenceOptions {
   bool asymptotic = true;        ///< Gauss-Newton covariance sigma^2 (J^T W J)^-1, delta method for derived.
   bool profile = true;           ///< Profile likelihood (with an effective sample size for correlated residuals).
   int bootstrap_samples = 200;   ///< Bootstrap refits; 0 disables the bootstrap.
-  /// Resampling unit: "frames" (moving blocks of frames within each trial) or "trials" (whole
+  /// Resampling unit: "frames" (circular blocks of frames within each trial) or "trials" (whole
   /// trials with replacement; needs at least two trials).
   std::string bootstrap_mode = "frames";
   int block_length = 0;          ///< Frames per block; 0: chosen from the data (see FitReport::bootstrap).

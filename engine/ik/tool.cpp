@@ -470,7 +470,9 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
 
   // Outputs: all prepared, then committed together.
   const double deg = 180.0 / M_PI;
-  AtomicFileSet outputs;
+  AtomicFileSet own_outputs;
+  AtomicFileSet& outputs = options.stage ? *options.stage : own_outputs;
+  const size_t staged_before = outputs.getPaths().size();
   io::Storage motion;
   motion.name = setup.name.empty() ? "ik" : setup.name;
   motion.in_degrees = true;
@@ -530,8 +532,10 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
     }
     outputs.addContents(prefix + "model_marker_locations.sto", io::formatStorage(loc));
   }
-  outputs.commit();
-  report.outputs = outputs.getPaths();
+  report.motion = std::move(motion);
+  if (!options.stage) own_outputs.commit();
+  const std::vector<std::string> paths = outputs.getPaths();
+  report.outputs.assign(paths.begin() + long(staged_before), paths.end());
   return report;
 }
 

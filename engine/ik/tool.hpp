@@ -25,9 +25,11 @@
 
 #include <Eigen/Core>
 
+#include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/xml.hpp"
 #include "ik/solver.hpp"
+#include "io/storage.hpp"
 
 namespace kneesim::ik {
 
@@ -99,7 +101,8 @@ struct IkReport {
   std::vector<std::string> worst_marker;  ///< Per solved frame.
   std::vector<MarkerErrorSummary> markers;
   std::vector<std::string> warnings;
-  std::vector<std::string> outputs;    ///< Files written.
+  std::vector<std::string> outputs;    ///< Files written (or staged, see IkRunOptions::stage).
+  io::Storage motion;                  ///< The motion as written (angles in degrees).
   double mean_rms = 0, max_error = 0;
   double seconds_solving = 0;
   int iterations = 0;                  ///< Gauss-Newton iterations over all frames.
@@ -110,6 +113,9 @@ struct IkReport {
 struct IkRunOptions {
   /// Called now and then with (frames done, frames total).
   std::function<void(int, int)> progress;
+  /// If set, the outputs are staged in this set instead of being committed, so that a larger
+  /// workflow can publish them together with its own outputs (or not at all if it fails later).
+  AtomicFileSet* stage = nullptr;
 };
 
 /// Runs IK as the setup describes and writes the motion (degrees for rotational coordinates, as

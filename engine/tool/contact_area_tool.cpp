@@ -70,7 +70,8 @@ double readLength(const xml::Node& node) {
 
 HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   checkChildren(h, {"flexion_deg", "flexion_range_deg", "time_step", "flexion_file", "flexion_column",
-                    "knee_forces_file", "flexion_scale", "flexion_offset_deg", "free_internal_rotation"});
+                    "knee_forces_file", "flexion_scale", "flexion_offset_deg", "free_internal_rotation",
+                    "seating_grid_deg"});
   HingeKinematicsSpec s;
   s.where = h.where();
   int sources = 0;
@@ -113,6 +114,11 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   s.offset = h.childDouble("flexion_offset_deg", 0.0) * kDegree;
   if (!std::isfinite(s.scale) || !std::isfinite(s.offset)) h.fail("expected finite flexion_scale and flexion_offset_deg");
   s.free_internal_rotation = h.childBool("free_internal_rotation", false);
+  if (xml::Node n = h.child("seating_grid_deg")) {
+    const double g = n.toDouble();
+    if (!(g >= 0 && g <= 30)) n.fail("expected a grid spacing of 0 (seat every frame) to 30 degrees, got " + n.text());
+    s.seating_grid = g * kDegree;
+  }
   return s;
 }
 
@@ -233,77 +239,68 @@ int requireBody(const model::Model& m, const std::string& name, const SourceLoca
 // X_BG of an optional model mesh (identity without one: the STL is in the body frame).
 Eigen::Isometry3d meshPose(const model::MeshRef* ref) { return ref ? ref->X_BG : Eigen::Isometry3d::Identity(); }
 
-ContactKinematics calcModelKinematics(const ContactAreaSetup& setup,
-                                      const std::function<void(const std::string&, int, int)>& progress) {
+// Coordinates that move the insert body relative to the femoral body: those of the joints on the
+// tree path between the two bodies.
+std::vector<bool> findPathCoordinates(const model::Model& m, int a, int b) {
+  const auto chain = [&](int body) {
+    std::vector<int> joints;
+    for (int j = m.findParentJoint(body); j >= 0; j = m.findParentJoint(m.joints[size_t(j)].parent_body))
+      joints.push_back(j);
+    return joints;
+  };
+  const std::vector<int> ca = chain(a), cb = chain(b);
+  std::vector<bool> on_path(m.coordinates.size(), false);
+  for (const std::vector<int>* c : {&ca, &cb}) {
+    const std::vector<int>& other = c == &ca ? cb : ca;
+    for (int j : *c)
+      if (std::find(other.begin(), other.end(), j) == other.end())
+        for (int q : m.joints[size_t(j)].coordinates) on_path[size_t(q)] = true;
+  }
+  return on_path;
+}
+
+ContactKinematics calcModelKinematicsFromFiles(const ContactAreaSetup& setup,
+                                               const std::function<void(const std::string&, int, int)>& progress) {
   const ModelKinematicsSpec& ms = setup.model;
   const SourceLocation at{ms.where.file, ms.where.line, ms.where.element};
   if (!fs::exists(ms.model_file)) throw InputError(at, "model file not found: " + ms.model_file);
   if (!fs::exists(ms.motion_file)) throw InputError(at, "motion file not found: " + ms.motion_file);
   const model::ModelPtr m = endsWith(toLower(ms.model_file), ".urdf") ? model::readUrdf(ms.model_file)
                                                                       : model::readOsim(ms.model_file);
-  const int fb = requireBody(*m, ms.femoral_body, at), ib = requireBody(*m, ms.insert_body, at);
-  const model::MeshRef* fmesh = findMesh(*m, fb, ms.femoral_mesh, at);
-  const model::MeshRef* imesh = findMesh(*m, ib, ms.insert_mesh, at);
-  for (const model::MeshRef* r : {fmesh, imesh})
-    if (r && (r->scale - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff() > 1e-12)
-      throw InputError(at, "mesh '" + r->file + "' is scaled by the model (" + formatSeconds(r->scale.x()) + " " +
-                               formatSeconds(r->scale.y()) + " " + formatSeconds(r->scale.z()) +
-                               "): expected unscaled implant meshes");
-  const io::Storage mot = io::readStorage(ms.motion_file);
-  std::vector<int> column(m->coordinates.size(), -1);
-  for (size_t c = 0; c < m->coordinates.size(); ++c) {
-    const model::Coordinate& coord = m->coordinates[c];
-    column[c] = mot.findColumn(coord.name);
-    if (column[c] < 0 && !coord.locked)
-      throw InputError(at, "motion file " + ms.motion_file + " has no column for coordinate '" + coord.name +
-                               "' of " + ms.model_file);
-  }
-  std::vector<double> all_time(size_t(mot.getNumRows()));
-  for (int r = 0; r < mot.getNumRows(); ++r) all_time[size_t(r)] = mot.data(r, 0);
-  const std::vector<int> frames = selectFrames(setup, all_time, ms.motion_file);
+  return calcModelKinematics(setup, m, io::readStorage(ms.motion_file), ms.motion_file, progress);
+}
 
-  sim::System system(m);
-  auto ws = system.createWorkspace();
-  const Eigen::Isometry3d X_BG_f = meshPose(fmesh), X_BG_i = meshPose(imesh);
-  ContactKinematics k;
-  Eigen::VectorXd q = system.getDefaultCoordinates();
-  for (size_t j = 0; j < frames.size(); ++j) {
-    const int r = frames[j];
-    for (size_t c = 0; c < m->coordinates.size(); ++c) {
-      if (column[c] < 0) continue;  // locked: its default
-      double v = mot.data(r, column[c]);
-      if (mot.in_degrees && m->coordinates[c].motion_type == model::MotionType::Rotational) v *= kDegree;
-      if (!std::isfinite(v))
-        throw InputError(at, "motion file " + ms.motion_file + ": coordinate '" + m->coordinates[c].name +
-                                 "' is not finite at t = " + formatSeconds(all_time[size_t(r)]) + " s");
-      q[Eigen::Index(c)] = v;
-    }
-    system.realizePosition(*ws, q);
-    const Eigen::Isometry3d X_GF = system.getBodyPose(*ws, fb) * X_BG_f;
-    const Eigen::Isometry3d X_GI = system.getBodyPose(*ws, ib) * X_BG_i;
-    k.time.push_back(all_time[size_t(r)]);
-    k.X_IF.push_back(X_GI.inverse(Eigen::Isometry) * X_GF);
-    if (progress && (j % 20 == 19 || j + 1 == frames.size())) progress("pose", int(j + 1), int(frames.size()));
+ContactKinematics calcHingeKinematicsFromSetup(const ContactAreaSetup& setup, const ImplantMeshes& meshes,
+                                               const std::function<void(const std::string&, int, int)>& progress) {
+  std::vector<double> time, flexion, t_sel, f_sel;
+  std::vector<std::string> warnings;
+  std::string description;
+  readFlexion(setup, time, flexion, warnings, description);
+  const std::string what = setup.hinge.source == HingeKinematicsSpec::Source::list ? "the flexion list" : setup.hinge.file;
+  for (int f : selectFrames(setup, time, what)) {
+    t_sel.push_back(time[size_t(f)]);
+    f_sel.push_back(flexion[size_t(f)]);
   }
-  k.description = "model " + ms.model_file + " with motion " + ms.motion_file + ": femoral component on body " +
-                  ms.femoral_body + (fmesh ? " (mesh " + fmesh->file + ")" : "") + ", insert on body " +
-                  ms.insert_body + (imesh ? " (mesh " + imesh->file + ")" : "");
-  for (const std::string& w : system.getWarnings()) k.warnings.push_back(w);
+  ContactKinematics k = calcHingeKinematics(setup, meshes, t_sel, f_sel, progress);
+  k.description = description + "; " + k.description;
+  k.warnings.insert(k.warnings.begin(), warnings.begin(), warnings.end());
   return k;
 }
 
+}  // namespace
+
 ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const ImplantMeshes& meshes,
+                                      const std::vector<double>& time, const std::vector<double>& selected,
                                       const std::function<void(const std::string&, int, int)>& progress) {
+  KNEESIM_CHECK(time.size() == selected.size(), "hinge kinematics: one flexion angle per time expected");
+  for (size_t j = 0; j < selected.size(); ++j)
+    if (!std::isfinite(selected[j]) || !std::isfinite(time[j]))
+      throw InputError({setup.setup_file, 0, "HingeKinematics"},
+                       "expected finite flexion angles and times, got " + formatSeconds(selected[j]) + " at t = " +
+                           formatSeconds(time[j]) + " s");
   ContactKinematics k;
-  std::vector<double> time, flexion;
-  readFlexion(setup, time, flexion, k.warnings, k.description);
-  const std::string what = setup.hinge.source == HingeKinematicsSpec::Source::list ? "the flexion list" : setup.hinge.file;
-  const std::vector<int> frames = selectFrames(setup, time, what);
-  std::vector<double> selected;
-  for (int f : frames) {
-    k.time.push_back(time[size_t(f)]);
-    selected.push_back(flexion[size_t(f)]);
-  }
+  k.time = time;
+  if (selected.empty()) return k;
   contact::ArticularSelection sel;
   sel.directions = setup.femur_directions;
   const contact::CondyleFits fits = contact::fitCondyles(meshes.femur, sel);
@@ -312,37 +309,83 @@ ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const Impla
   contact::Seater seater(contact::makeSeatingSetup(meshes.femur, meshes.insert, fits.both.cylinder,
                                                    setup.femur_directions, setup.options.insert_directions),
                          so);
-  // Seat frame by frame (each from the previous seat) to report progress.
+  // The angles to seat at: every frame, or the knots of a grid covering the frames' range when
+  // that is fewer seatings.
+  const double step = setup.hinge.seating_grid;
+  std::vector<double> knots;
+  if (step > 0 && !selected.empty()) {
+    const double lo = *std::min_element(selected.begin(), selected.end());
+    const double hi = *std::max_element(selected.begin(), selected.end());
+    const long first = long(std::floor(lo / step + 1e-9)), last = long(std::ceil(hi / step - 1e-9));
+    if (size_t(last - first + 1) < selected.size())
+      for (long i = first; i <= last; ++i) knots.push_back(double(i) * step);
+  }
+  const bool on_grid = !knots.empty();
+  const std::vector<double>& seat_at = on_grid ? knots : selected;
+  // Seat one angle after the other (each from the previous seat) to report progress.
   std::vector<contact::SeatingResult> seats;
-  seats.reserve(selected.size());
-  for (size_t j = 0; j < selected.size(); ++j) {
-    seats.push_back(seats.empty() ? seater.calcSeating(selected[j]) : seater.calcSeating(selected[j], &seats.back().q));
-    if (progress && (j % 10 == 9 || j + 1 == selected.size())) progress("seat", int(j + 1), int(selected.size()));
+  seats.reserve(seat_at.size());
+  for (size_t j = 0; j < seat_at.size(); ++j) {
+    seats.push_back(seats.empty() ? seater.calcSeating(seat_at[j]) : seater.calcSeating(seat_at[j], &seats.back().q));
+    if (progress && (j % 10 == 9 || j + 1 == seat_at.size())) progress("seat", int(j + 1), int(seat_at.size()));
   }
   int unconverged = 0;
-  std::vector<double> gap_m, gap_l;
-  for (const contact::SeatingResult& s : seats) {
-    k.X_IF.push_back(s.X_IF);
-    unconverged += s.converged ? 0 : 1;
-    gap_m.push_back(s.gap_medial);
-    gap_l.push_back(s.gap_lateral);
-  }
+  for (const contact::SeatingResult& s : seats) unconverged += s.converged ? 0 : 1;
   if (unconverged > 0)
-    k.warnings.push_back("seating did not converge in " + std::to_string(unconverged) + " of " +
-                         std::to_string(seats.size()) + " frames (see hinge_gap_medial/lateral)");
+    k.warnings.push_back("seating did not converge at " + std::to_string(unconverged) + " of " +
+                         std::to_string(seats.size()) + (on_grid ? " grid knots" : " frames") +
+                         " (see hinge_gap_medial/lateral)");
+  std::vector<double> gap_m, gap_l;
+  if (!on_grid) {
+    for (const contact::SeatingResult& s : seats) {
+      k.X_IF.push_back(s.X_IF);
+      gap_m.push_back(s.gap_medial);
+      gap_l.push_back(s.gap_lateral);
+    }
+  } else {
+    // Linear interpolation of the seating coordinates between the two nearest knots; the gaps of
+    // the interpolated pose are measured, not assumed (a search radius of 1 mm covers gaps of micrometres).
+    double worst = 0;
+    for (size_t j = 0; j < selected.size(); ++j) {
+      size_t i = 0;
+      double a = 0;
+      if (knots.size() > 1) {
+        const double u = (selected[j] - knots.front()) / step;
+        i = std::min(size_t(std::max(0.0, std::floor(u))), knots.size() - 2);
+        a = std::clamp(u - double(i), 0.0, 1.0);
+      }
+      const contact::SeatingCoordinates& q0 = seats[i].q;
+      const contact::SeatingCoordinates& q1 = seats[std::min(i + 1, seats.size() - 1)].q;
+      contact::SeatingCoordinates q;
+      q.p_IH = (1 - a) * q0.p_IH + a * q1.p_IH;
+      q.varus = (1 - a) * q0.varus + a * q1.varus;
+      q.internal = (1 - a) * q0.internal + a * q1.internal;
+      k.X_IF.push_back(seater.calcPose(selected[j], q));
+      double gap[2];
+      seater.calcGaps(k.X_IF.back(), 1e-3, gap, nullptr);
+      gap_m.push_back(gap[0]);
+      gap_l.push_back(gap[1]);
+      worst = std::max({worst, std::abs(gap[0]), std::abs(gap[1])});
+      if (progress && (j % 20 == 19 || j + 1 == selected.size())) progress("pose", int(j + 1), int(selected.size()));
+    }
+    std::ostringstream os;
+    os << "; seated on a " << std::setprecision(4) << step / kDegree << "-degree grid (" << knots.size()
+       << " knots, " << knots.front() / kDegree << " to " << knots.back() / kDegree
+       << " deg), poses interpolated linearly in the seating coordinates: largest residual gap "
+       << std::setprecision(3) << worst * 1e6 << " um";
+    k.description += os.str();
+  }
   k.columns.emplace_back("flexion", selected);
   k.columns.emplace_back("hinge_gap_medial", gap_m);
   k.columns.emplace_back("hinge_gap_lateral", gap_l);
   {
     std::ostringstream os;
-    os << "; hinge: cylinder R = " << std::setprecision(5) << fits.both.cylinder.radius * 1e3 << " mm (mean error "
+    os << "hinge: cylinder R = " << std::setprecision(5) << fits.both.cylinder.radius * 1e3 << " mm (mean error "
        << fits.both.errors.mean_abs * 1e3 << " mm, " << fits.both.errors.num_points << " points)";
-    k.description += os.str();
+    k.description = os.str() + k.description;
   }
   return k;
 }
-
-}  // namespace
 
 ContactAreaSetup readContactAreaSetup(const std::string& path) {
   auto doc = xml::Document::load(path);
@@ -433,7 +476,85 @@ ImplantMeshes readImplantMeshes(const ContactAreaSetup& setup) {
 
 ContactKinematics calcContactKinematics(const ContactAreaSetup& setup, const ImplantMeshes& meshes,
                                         const std::function<void(const std::string&, int, int)>& progress) {
-  return setup.use_model ? calcModelKinematics(setup, progress) : calcHingeKinematics(setup, meshes, progress);
+  return setup.use_model ? calcModelKinematicsFromFiles(setup, progress)
+                         : calcHingeKinematicsFromSetup(setup, meshes, progress);
+}
+
+ContactKinematics calcModelKinematics(const ContactAreaSetup& setup, const model::ModelPtr& model,
+                                      const io::Storage& mot, const std::string& motion_name,
+                                      const std::function<void(const std::string&, int, int)>& progress) {
+  const ModelKinematicsSpec& ms = setup.model;
+  const model::Model& m = *model;
+  const SourceLocation at{ms.where.file.empty() ? setup.setup_file : ms.where.file, ms.where.line,
+                          ms.where.element.empty() ? "ModelKinematics" : ms.where.element};
+  const int fb = requireBody(m, ms.femoral_body, at), ib = requireBody(m, ms.insert_body, at);
+  const model::MeshRef* fmesh = findMesh(m, fb, ms.femoral_mesh, at);
+  const model::MeshRef* imesh = findMesh(m, ib, ms.insert_mesh, at);
+  for (const model::MeshRef* r : {fmesh, imesh})
+    if (r && (r->scale - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff() > 1e-12)
+      throw InputError(at, "mesh '" + r->file + "' is scaled by the model (" + formatSeconds(r->scale.x()) + " " +
+                               formatSeconds(r->scale.y()) + " " + formatSeconds(r->scale.z()) +
+                               "): expected unscaled implant meshes");
+  std::vector<int> coupler_of(m.coordinates.size(), -1);
+  for (size_t c = 0; c < m.couplers.size(); ++c) coupler_of[size_t(m.couplers[c].dependent)] = int(c);
+  std::vector<bool> on_path = findPathCoordinates(m, fb, ib);
+  // The independents of a coupler driving a coordinate on the path move the components too.
+  for (size_t pass = 0; pass < m.couplers.size(); ++pass)
+    for (const model::CoordinateCoupler& cp : m.couplers)
+      if (on_path[size_t(cp.dependent)])
+        for (int i : cp.independents) on_path[size_t(i)] = true;
+  std::vector<int> column(m.coordinates.size(), -1);
+  for (size_t c = 0; c < m.coordinates.size(); ++c) {
+    const model::Coordinate& coord = m.coordinates[c];
+    column[c] = mot.findColumn(coord.name);
+    if (column[c] < 0 && on_path[c] && !coord.locked && coupler_of[c] < 0)
+      throw InputError(at, "motion file " + motion_name + " has no column for coordinate '" + coord.name + "' of " +
+                               (m.source_file.empty() ? m.name : m.source_file) + " (it moves " + ms.femoral_body +
+                               " relative to " + ms.insert_body + ")");
+  }
+  if (mot.getNumRows() > 0 && (mot.labels.empty() || mot.labels[0] != "time"))
+    throw InputError(at, "motion file " + motion_name + ": expected 'time' as the first column");
+  std::vector<double> all_time(size_t(mot.getNumRows()));
+  for (int r = 0; r < mot.getNumRows(); ++r) all_time[size_t(r)] = mot.data(r, 0);
+  const std::vector<int> frames = selectFrames(setup, all_time, motion_name);
+
+  sim::System system(model);
+  auto ws = system.createWorkspace();
+  const Eigen::Isometry3d X_BG_f = meshPose(fmesh), X_BG_i = meshPose(imesh);
+  ContactKinematics k;
+  Eigen::VectorXd q = system.getDefaultCoordinates();
+  std::vector<double> args;
+  for (size_t j = 0; j < frames.size(); ++j) {
+    const int r = frames[j];
+    for (size_t c = 0; c < m.coordinates.size(); ++c) {
+      if (column[c] < 0) continue;  // locked, coupled or off the path: default or coupler value below
+      double v = mot.data(r, column[c]);
+      if (mot.in_degrees && m.coordinates[c].motion_type == model::MotionType::Rotational) v *= kDegree;
+      if (!std::isfinite(v))
+        throw InputError(at, "motion file " + motion_name + ": coordinate '" + m.coordinates[c].name +
+                                 "' is not finite at t = " + formatSeconds(all_time[size_t(r)]) + " s");
+      q[Eigen::Index(c)] = v;
+    }
+    // Dependents the motion lacks follow their couplers (in as many passes as a chain needs).
+    for (size_t pass = 0; pass < m.couplers.size(); ++pass)
+      for (const model::CoordinateCoupler& cp : m.couplers) {
+        if (column[size_t(cp.dependent)] >= 0) continue;
+        args.clear();
+        for (int i : cp.independents) args.push_back(q[i]);
+        q[cp.dependent] = cp.scale_factor * cp.function->calcValue(args.data());
+      }
+    system.realizePosition(*ws, q);
+    const Eigen::Isometry3d X_GF = system.getBodyPose(*ws, fb) * X_BG_f;
+    const Eigen::Isometry3d X_GI = system.getBodyPose(*ws, ib) * X_BG_i;
+    k.time.push_back(all_time[size_t(r)]);
+    k.X_IF.push_back(X_GI.inverse(Eigen::Isometry) * X_GF);
+    if (progress && (j % 20 == 19 || j + 1 == frames.size())) progress("pose", int(j + 1), int(frames.size()));
+  }
+  k.description = "model " + (m.source_file.empty() ? m.name : m.source_file) + " with motion " + motion_name +
+                  ": femoral component on body " + ms.femoral_body + (fmesh ? " (mesh " + fmesh->file + ")" : "") +
+                  ", insert on body " + ms.insert_body + (imesh ? " (mesh " + imesh->file + ")" : "");
+  for (const std::string& w : system.getWarnings()) k.warnings.push_back(w);
+  return k;
 }
 
 std::unique_ptr<contact::ContactAreaCalculator> makeContactAreaCalculator(const ContactAreaSetup& setup,

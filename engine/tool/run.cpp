@@ -7,6 +7,7 @@
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
 #include "tool/contact_area_tool.hpp"
+#include "tool/knee_contact_workflow.hpp"
 #include "tool/knee_model.hpp"
 
 namespace kneesim::tool {
@@ -32,6 +33,11 @@ void runContactAreaTool(const std::string& setup_path, const RunOptions& options
   if (options.out) printContactAreaSummary(report, *options.out);
 }
 
+void runWorkflowTool(const std::string& setup_path, const RunOptions& options) {
+  const WorkflowReport report = runWorkflow(readWorkflowSetup(setup_path), options);
+  if (options.out) printWorkflowSummary(report, *options.out);
+}
+
 std::vector<ToolEntry> makeTools() {
   std::vector<ToolEntry> tools;
   // OpenSim accepts its own historical misspellings (e.g. "InverseKinemtaticsTool").
@@ -48,6 +54,7 @@ std::vector<ToolEntry> makeTools() {
                      const gap::GapRunResult r = gap::runGap(gap::readGapSetup(setup));
                      if (o.out) gap::printGapSummary(r, *o.out);
                    }});
+  tools.push_back({"knee-contact-workflow", "KneeContactWorkflow", nullptr, runWorkflowTool});
   return tools;
 }
 

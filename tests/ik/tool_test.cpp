@@ -233,6 +233,25 @@ TEST(IkTool, RecoversTheChainMotionAndWritesEveryOutputTogether) {
   EXPECT_NEAR(loc.data(11, 4), c.markers.getPosition(11, 1).x(), 1e-7);
 }
 
+// A larger workflow stages IK's outputs in its own set: nothing is written until it commits, and
+// the report carries the motion as it will be written.
+TEST(IkTool, OutputsCanBeStagedInAnotherSet) {
+  const ChainCase c = makeChainCase("staged");
+  AtomicFileSet set;
+  IkRunOptions o;
+  o.stage = &set;
+  const IkReport r = runIk(readIkSetup(c.setup), o);
+  EXPECT_FALSE(fs::exists(c.dir + "/results/chain_ik.mot"));
+  EXPECT_EQ(r.outputs.size(), 5u);
+  EXPECT_EQ(set.getPaths().size(), 5u);
+  ASSERT_EQ(r.motion.getNumRows(), 20);
+  EXPECT_TRUE(r.motion.in_degrees);
+  set.commit();
+  const io::Storage mot = io::readStorage(c.dir + "/results/chain_ik.mot");
+  EXPECT_EQ(mot.labels, r.motion.labels);
+  EXPECT_NEAR((mot.data - r.motion.data).cwiseAbs().maxCoeff(), 0.0, 1e-7);  // as written (%.8f)
+}
+
 TEST(IkTool, TheCouplerHoldsAndAFiniteConstraintWeightIsReportedUnused) {
   const ChainCase c = makeChainCase("coupler");
   spit(c.setup, replaced(slurp(c.setup), "<constraint_weight>Infinity", "<constraint_weight>10.0"));

@@ -12,6 +12,7 @@
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
 #include "io/c3d.hpp"
+#include "io/gait_events.hpp"
 #include "io/storage.hpp"
 #include "model/osim_reader.hpp"
 #include "sim/system.hpp"
@@ -50,27 +51,11 @@ IkRun runTrial(const std::string& trial) {
   return r;
 }
 
-// Right heel strikes: a plate's vertical force rising through 20 N while the right heel marker is
-// over that plate.
+// Right heel strikes from the force plates (io::findFootContacts: a plate's vertical force rising
+// through 20 N while the right heel marker is over that plate).
 std::vector<double> findRightHeelStrikes(const io::C3dFile& c3d) {
   std::vector<double> out;
-  const int heel = c3d.markers.findMarker("RHeel");
-  const int spf = c3d.analog.samples_per_frame;
-  for (int p = 0; p < int(c3d.plates.size()); ++p) {
-    const io::PlateWrench w = io::calcPlateWrench(c3d, p, 20.0);
-    const auto& C = c3d.plates[p].corners_m;
-    for (size_t s = 1; s < w.force.size(); ++s) {
-      if (!(w.force[s].z() > 20.0 && w.force[s - 1].z() <= 20.0)) continue;
-      const int f = std::min(int(s) / spf, c3d.markers.getNumFrames() - 1);
-      const Vector3d h = c3d.markers.getPosition(f, heel);
-      if (h.x() >= C.row(0).minCoeff() && h.x() <= C.row(0).maxCoeff() && h.y() >= C.row(1).minCoeff() &&
-          h.y() <= C.row(1).maxCoeff()) {
-        out.push_back(c3d.analog.time[s]);
-        break;  // the first contact on this plate
-      }
-    }
-  }
-  std::sort(out.begin(), out.end());
+  for (const io::FootContact& c : io::findFootContacts(c3d)) out.push_back(c.strike);
   return out;
 }
 

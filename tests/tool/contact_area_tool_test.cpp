@@ -12,6 +12,7 @@
 #include "core/error.hpp"
 #include "io/knee_forces.hpp"
 #include "io/storage.hpp"
+#include "model/osim_reader.hpp"
 #include "support/test_data.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/run.hpp"
@@ -172,6 +173,66 @@ TEST(ContactAreaTool, BadInputsAreOneLineErrors) {
   expectError(dir, replace(hinge, "SOURCE", ""), "exactly one flexion source");
 }
 
+// calcModelKinematics from a motion in memory: a coordinate coupled to one the motion has follows
+// its coupler, one off the path between the two bodies keeps its default, and only an uncoupled
+// coordinate on the path is required. The fixture plus a pelvis on a pin (off the path) and the
+// slider coupled to a "drive" coordinate of that pin's twin: lift = 0.5 drive - 0.004.
+TEST(ContactAreaTool, ModelKinematicsInMemoryFollowCouplersAndSkipCoordinatesOffThePath) {
+  const std::string dir = makeScene("cat_memory");
+  std::string osim;
+  {
+    std::ifstream in(dir + "/slider_knee.osim");
+    osim.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string pin = R"(<PinJoint name="NAME_joint">
+					<socket_parent_frame>ground_NAME</socket_parent_frame>
+					<socket_child_frame>/bodyset/NAME</socket_child_frame>
+					<coordinates><Coordinate name="COORD"><default_value>0.2</default_value></Coordinate></coordinates>
+					<frames><PhysicalOffsetFrame name="ground_NAME"><socket_parent>/ground</socket_parent>
+						<translation>0 1 0</translation><orientation>0 0 0</orientation></PhysicalOffsetFrame></frames>
+				</PinJoint>
+				)";
+  const auto body = [](const std::string& n) {
+    return "<Body name=\"" + n + "\"><mass>1</mass><mass_center>0 0 0</mass_center><inertia>0.01 0.01 0.01 0 0 0</inertia></Body>\n";
+  };
+  osim = replace(osim, "<Body name=\"tray\">", body("pelvis") + body("driver") + "<Body name=\"tray\">");
+  std::string joints = replace(replace(pin, "NAME", "pelvis"), "COORD", "tilt");
+  joints = replace(replace(replace(joints, "NAME", "pelvis"), "NAME", "pelvis"), "NAME", "pelvis");
+  std::string driver = replace(pin, "COORD", "drive");
+  for (int k = 0; k < 4; ++k) driver = replace(driver, "NAME", "driver");
+  osim = replace(osim, "<SliderJoint name=\"lift_joint\">", joints + driver + "<SliderJoint name=\"lift_joint\">");
+  osim = replace(osim, "</JointSet>",
+                 "</JointSet>\n<ConstraintSet><objects><CoordinateCouplerConstraint name=\"lift_drive\">"
+                 "<coupled_coordinates_function><LinearFunction><coefficients>0.5 -0.004</coefficients></LinearFunction>"
+                 "</coupled_coordinates_function><independent_coordinate_names>drive</independent_coordinate_names>"
+                 "<dependent_coordinate_name>lift</dependent_coordinate_name><scale_factor>1</scale_factor>"
+                 "</CoordinateCouplerConstraint></objects></ConstraintSet>");
+  writeText(dir + "/coupled.osim", osim);
+  const model::ModelPtr m = model::readOsim(dir + "/coupled.osim");
+  ASSERT_EQ(m->couplers.size(), 1u);
+  writeText(dir + "/setup.xml", modelSetup());
+  ContactAreaSetup setup = readContactAreaSetup(dir + "/setup.xml");
+  io::Storage mot;
+  mot.labels = {"time", "drive"};
+  mot.data.resize(3, 2);
+  mot.data << 0, 0.0, 0.1, 0.001, 0.2, -0.001;  // lift = -4, -3.5, -4.5 mm: gap 1, 1.5, 0.5 mm
+  const ContactKinematics k = calcModelKinematics(setup, m, mot, "drive motion");
+  ASSERT_EQ(k.X_IF.size(), 3u);
+  for (int j = 0; j < 3; ++j) {
+    const double lift = 0.5 * mot.data(j, 1) - 0.004;
+    EXPECT_NEAR((k.X_IF[size_t(j)].translation() - Vector3d(0.001, 0.025 + lift, 0)).norm(), 0, 1e-12) << j;
+    EXPECT_TRUE(k.X_IF[size_t(j)].linear().isIdentity(1e-12));
+  }
+  // Without "drive" the slider's coupler has nothing to follow: drive is on the path through it.
+  mot.labels = {"time", "tilt"};
+  try {
+    calcModelKinematics(setup, m, mot, "tilt motion");
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("has no column for coordinate 'drive'"), std::string::npos) << e.what();
+  }
+}
+
 const char* kJwHinge =
     "<ContactAreaTool name=\"jw\">\n"
     "  <femoral_component_file>FEMUR</femoral_component_file>\n"
@@ -224,6 +285,33 @@ TEST(ContactAreaTool, JwHingeFromGoniometer) {
     EXPECT_GT(r.series.frames[j].S, 2e-3);  // near full extension: most of the dishes within 4 mm
   }
   EXPECT_TRUE(r.warnings.empty());
+}
+
+// The hinge seated on a 5-degree flexion grid (seating_grid_deg, linear interpolation of the seating
+// coordinates between knots) against seating every frame: the interpolated poses touch the insert
+// to micrometres and give the same areas within a few mm^2 (the seated position scatters by up to
+// 1 mm along the flat dishes, README "Seating"; the area hardly depends on it).
+TEST(ContactAreaTool, JwHingeOnAFlexionGridMatchesSeatingEveryFrame) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
+  const std::string dir = test::scratchDir("cat_jw_grid");
+  const std::string angles = "<flexion_range_deg>3 25.5 2.25</flexion_range_deg>";  // 11 frames
+  writeText(dir + "/every.xml", jwSetup(angles + "<seating_grid_deg>0</seating_grid_deg>"));
+  writeText(dir + "/grid.xml", jwSetup(angles + "<seating_grid_deg>5</seating_grid_deg>"));
+  const ContactAreaReport every = runContactArea(readContactAreaSetup(dir + "/every.xml"));
+  const ContactAreaReport grid = runContactArea(readContactAreaSetup(dir + "/grid.xml"));
+  ASSERT_EQ(grid.series.frames.size(), 11u);
+  EXPECT_NE(grid.kinematics.description.find("5-degree grid (7 knots, 0 to 30 deg)"), std::string::npos)
+      << grid.kinematics.description;
+  double worst_area = 0, worst_gap = 0, worst_move = 0;
+  for (size_t j = 0; j < 11; ++j) {
+    worst_area = std::max(worst_area, std::abs(grid.series.frames[j].S - every.series.frames[j].S));
+    for (size_t c = 1; c <= 2; ++c) worst_gap = std::max(worst_gap, std::abs(grid.kinematics.columns[c].second[j]));
+    worst_move = std::max(worst_move, (grid.kinematics.X_IF[j].translation() - every.kinematics.X_IF[j].translation()).norm());
+  }
+  std::printf("[ JW grid  ] 5-degree grid vs seating every frame: area within %.2f mm^2, residual gaps within %.2f um, "
+              "femur within %.3f mm\n", worst_area * 1e6, worst_gap * 1e6, worst_move * 1e3);
+  EXPECT_LT(worst_gap, 20e-6);
+  EXPECT_LT(worst_area, 15e-6);
 }
 
 }  // namespace
