@@ -344,6 +344,7 @@ int computeSdf(void* ctx, const double* X_TQ, double max_distance, double* dista
   } catch (const std::exception& e) {
     writeError(err, err_len, std::string("distance query failed: ") + e.what());
   }
+  c->invalidate();  // a call cut short may leave cells queued: start the grid afresh next time
   return 1;
 }
 

@@ -36,6 +36,8 @@ struct SdfMap : ProviderContext {
 
   std::string init(const kneesim_mesh_view& view, int n_points, const double* points);
   int compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance, double* distance, double* closest_T);
+  // Drops the grid; the next call rebuilds it.
+  void invalidate() { band_ = 0; }
 
  private:
   static constexpr int kB = 8;  // nodes (and cells) per block edge
