@@ -33,7 +33,9 @@ class DistanceField {
   /// inside (the "fcl" provider gives the exact value when it has it, else +-infinity).
   /// @p closest_T, if not null, receives the closest target point of points within max_distance
   /// (NaN for the others with the "fcl" provider). Does not allocate when the vectors already have
-  /// the right size. Throws InputError naming the target mesh if the provider fails (a bad pose).
+  /// the right size. An approximate provider ("fcl_sdf": 20 um) meets all of this to within its
+  /// stated tolerance, and may allocate while it fills its cache. Throws InputError naming the
+  /// target mesh if the provider fails (a bad pose).
   void calcDistances(const Eigen::Isometry3d& X_TQ, double max_distance, std::vector<double>& distance,
                      std::vector<Eigen::Vector3d>* closest_T = nullptr) const;
 
