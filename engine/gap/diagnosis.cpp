@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include <Eigen/QR>
+#include <Eigen/SVD>
 
 #include "core/strings.hpp"
 
@@ -191,7 +192,13 @@ bool testable(const Context& c, const Effect& e, std::string& reason) {
   return true;
 }
 
-Screening screen(const Context& c, const Model& m, const Effect& e) {
+// Orthonormal basis of the force changes an effect's parameters make at the current model that the
+// current model's own parameters cannot make (its scaled sensitivity columns with the current
+// model's columns projected out): what the data can see of the effect. Two effects whose bases
+// span nearly the same direction cannot be told apart on these trials, however large they are.
+using VisibleBasis = Eigen::MatrixXd;
+
+Screening screen(const Context& c, const Model& m, const Effect& e, VisibleBasis* visible = nullptr) {
   Screening s;
   s.effect = e.getName();
   if (!testable(c, e, s.reason)) {
@@ -285,7 +292,28 @@ Screening screen(const Context& c, const Model& m, const Effect& e) {
   }
   s.p_value = chiSquareSurvival(s.statistic, s.dof);
   s.z = (s.statistic - s.dof) / std::sqrt(2.0 * s.dof);
+  if (visible) {
+    Eigen::MatrixXd ex = a.rightCols(a.cols() - k_m);
+    if (k_m > 0) {
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qm(a.leftCols(k_m));
+      qm.setThreshold(1e-10);
+      // Thin Q only: the full one is frames x frames.
+      const Eigen::MatrixXd q = qm.householderQ() * Eigen::MatrixXd::Identity(ex.rows(), qm.rank());
+      ex -= q * (q.transpose() * ex);
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qe(ex);
+    qe.setThreshold(1e-8);
+    *visible = qe.householderQ() * Eigen::MatrixXd::Identity(ex.rows(), qe.rank());
+  }
   return s;
+}
+
+// Largest canonical correlation between two visible bases (1: one effect's visible force change
+// lies in the other's span).
+double canonicalCorrelation(const VisibleBasis& a, const VisibleBasis& b) {
+  if (a.cols() == 0 || b.cols() == 0 || a.rows() != b.rows()) return 0;
+  const Eigen::MatrixXd m = a.transpose() * b;
+  return std::min(1.0, Eigen::JacobiSVD<Eigen::MatrixXd>(m).singularValues()(0));
 }
 
 std::vector<double> signature(const Context& c, const Model& with, const Model& without) {
@@ -778,8 +806,10 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
   std::map<std::string, std::vector<double>> sigs;
   for (int step = 1; step <= o.max_effects; ++step) {
     std::vector<Screening> scr;
+    std::map<std::string, VisibleBasis> visible;
     for (const auto& e : catalogue)
-      if (std::find(chosen.begin(), chosen.end(), e.getName()) == chosen.end()) scr.push_back(screen(c, current, e));
+      if (std::find(chosen.begin(), chosen.end(), e.getName()) == chosen.end())
+        scr.push_back(screen(c, current, e, &visible[e.getName()]));
     std::stable_sort(scr.begin(), scr.end(), [](const Screening& a, const Screening& b) {
       if (a.testable != b.testable) return a.testable;
       return a.z > b.z;
@@ -802,6 +832,14 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     for (size_t k = 0; k < fits.size(); ++k)
       if (fits[k].converged && (best < 0 || fits[k].relative_improvement > fits[best].relative_improvement))
         best = static_cast<int>(k);
+    auto separatedBy = [&](const std::string& a, const std::string& b, const std::string& evidence) {
+      std::string sa, sb;
+      for (const auto& e : catalogue) {
+        if (e.getName() == a) sa = e.getSeparatedBy();
+        if (e.getName() == b) sb = e.getSeparatedBy();
+      }
+      return evidence + "; trials where they differ would separate them: " + a + ": " + sa + "; " + b + ": " + sb;
+    };
     // Confusable pairs: both significant, withheld errors alike, force changes nearly proportional.
     for (size_t a = 0; a < fits.size(); ++a)
       for (size_t b = a + 1; b < fits.size(); ++b) {
@@ -815,14 +853,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
           cp.b = fits[b].effect;
           cp.signature_r = r;
           cp.difference = diff;
-          std::string sa, sb;
-          for (const auto& e : catalogue) {
-            if (e.getName() == cp.a) sa = e.getSeparatedBy();
-            if (e.getName() == cp.b) sb = e.getSeparatedBy();
-          }
-          cp.separated_by = "their force changes correlate at r = " + fmt(r, 2) +
-                            " on these trials; trials where they differ would separate them: " + cp.a + ": " + sa +
-                            "; " + cp.b + ": " + sb;
+          cp.separated_by = separatedBy(cp.a, cp.b, "their force changes correlate at r = " + fmt(r, 2) + " on these trials");
           d.confusable.push_back(cp);
         }
       }
@@ -847,6 +878,49 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     }
     for (size_t k = 0; k < fits.size(); ++k)
       if (static_cast<int>(k) != best) fits[k].decision = "not the best withheld improvement at step " + std::to_string(step);
+    if (accept) {
+      // Rivals of the selected effect: effects whose force change, as far as the baseline leaves it
+      // visible, nearly spans the same direction on these trials (canonical correlation of the
+      // visible bases >= o.confusable_correlation). Each is fitted fully (unless it was) and
+      // reported confusable when the withheld errors of the two cannot be told apart.
+      const std::string sel = fits[best].effect;
+      const Model& sel_model = models[best];
+      for (const auto& sc : scr) {
+        if (!sc.testable || sc.effect == sel) continue;
+        const bool listed = std::any_of(d.confusable.begin(), d.confusable.end(), [&](const ConfusablePair& p) {
+          return (p.a == sel && p.b == sc.effect) || (p.b == sel && p.a == sc.effect);
+        });
+        if (listed) continue;
+        const double rho = canonicalCorrelation(visible[sel], visible[sc.effect]);
+        if (rho < o.confusable_correlation) continue;
+        const Model* rival = nullptr;
+        Model extra(*c.base);
+        for (size_t k = 0; k < fits.size(); ++k)
+          if (fits[k].effect == sc.effect) rival = &models[k];
+        if (!rival) {
+          const Effect* e = nullptr;
+          for (const auto& x : catalogue)
+            if (x.getName() == sc.effect) e = &x;
+          const CandidateFit rf = evaluate(c, current, *e, step, static_cast<int>(top.size()), extra);
+          if (!rf.converged) continue;
+          rival = &extra;
+        }
+        const MeanInterval diff = meanInterval(unitLogRatios(rival->unit_sse, sel_model.unit_sse), o.level);
+        if (!(diff.lower <= 0 && diff.upper >= 0)) continue;
+        ConfusablePair cp;
+        cp.a = sel;
+        cp.b = sc.effect;
+        cp.signature_r = rho;
+        cp.difference = diff;
+        cp.separated_by = separatedBy(
+            cp.a, cp.b,
+            "what the baseline leaves visible of their force changes correlates at " + fmt(rho, 3) +
+                " (canonical correlation at step " + std::to_string(step) +
+                ") and their withheld errors do not differ (per-cycle log SSE ratio " + fmt(diff.mean, 3) + " [" +
+                fmt(diff.lower, 3) + ", " + fmt(diff.upper, 3) + "])");
+        d.confusable.push_back(cp);
+      }
+    }
     d.candidates.insert(d.candidates.end(), fits.begin(), fits.end());
     if (!accept) break;
     chosen.push_back(fits[best].effect);
@@ -1031,7 +1105,7 @@ GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& 
   }
   if (rep.interim_inputs)
     rep.notes.push_back("INTERIM INPUTS: some contact areas are the interim stand-in derived from the measured force "
-                        "(gap/interim_inputs.hpp); this is not a real-data result.");
+                        "(files marked kneesim_interim=true); this is not a real-data result.");
   for (const auto& target : o.targets) {
     if (target != "total" && target != "medial" && target != "lateral")
       throw InputError(where, "gap diagnosis: target: expected total, medial or lateral, got '" + target + "'");

@@ -54,6 +54,10 @@ struct DiagnosisOptions {
   double alpha = 0.05;     ///< Family-wise level for accepting an effect at a step (Bonferroni).
   /// Smallest withheld mean-square-error reduction, relative to the current model's, worth an effect.
   double min_relative_improvement = 0.05;
+  /// Canonical correlation of two effects' visible force changes (what the current model cannot
+  /// absorb) at or above which a rival of a selected effect is fitted and, when the two withheld
+  /// errors cannot be told apart, reported confusable with it.
+  double confusable_correlation = 0.8;
   double structure_alpha = 0.01;  ///< Level of the remaining-structure test.
   int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
   int permutations = 2000;        ///< Sign flips of the remaining-structure test.
@@ -155,7 +159,9 @@ struct CandidateFit {
 /// Two effects the data cannot tell apart.
 struct ConfusablePair {
   std::string a, b;
-  double signature_r = 0;         ///< Correlation of the force changes each makes.
+  /// Correlation of the force changes each makes (two significant full fits), or, for a rival of a
+  /// selected effect, the canonical correlation of what the current model leaves visible of them.
+  double signature_r = 0;
   MeanInterval difference;        ///< Per-cycle ln(SSE_b / SSE_a) of held-out errors (> 0: a is better).
   std::string separated_by;       ///< What data would separate them.
 };

@@ -202,7 +202,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
          "known injected effects (see the notes).\n\n";
   if (r.interim_inputs)
     s << "> **INTERIM INPUTS - NOT A REAL-DATA RESULT.** Some contact areas are the interim stand-in derived from "
-         "the measured force (gap/interim_inputs.hpp), not the contact-area tool's output.\n\n";
+         "the measured force (files marked kneesim_interim=true), not the contact-area tool's output.\n\n";
   s << "# Sim-to-real gap diagnosis: " << r.law << "\n\n";
   s << "Trials: ";
   for (size_t k = 0; k < r.trials.size(); ++k) s << (k ? ", " : "") << r.trials[k];
@@ -278,7 +278,8 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
     }
     s << "\n";
     if (!d.confusable.empty()) {
-      s << "Confusable pairs (both improve the withheld error, alike, with nearly proportional force changes):\n\n";
+      s << "Confusable pairs (the data at hand cannot tell them apart: both improve the withheld error alike with "
+           "nearly proportional force changes, or what the baseline leaves visible of them is nearly the same):\n\n";
       for (const auto& c : d.confusable) s << "- **" << c.a << " ~ " << c.b << "**: " << c.separated_by << "\n";
       s << "\n";
     }

@@ -70,17 +70,35 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
       const int n = g.getNumFrames();
       const double rate = n > 1 ? (n - 1) / (t.back() - t.front()) : 120.0;
       auto& ch = g.trial.channels;
-      // Smooth between-replicate variation: one factor for all areas (they vary together), one
-      // offset for the flexion, one factor for the external load and the EMG.
+      // Smooth between-replicate variation: one offset for the flexion (the areas follow it through
+      // their flexion derivatives, as the model's areas do), an optional factor for all areas, one
+      // factor for the external load and the EMG.
       const std::vector<double> xa = smoothNoise(n, rate, 0.15, rng), xf = smoothNoise(n, rate, 0.2, rng),
                                 xl = smoothNoise(n, rate, 0.15, rng);
+      std::vector<double> dtheta(n);
+      for (int i = 0; i < n; ++i) dtheta[i] = o.flexion_variation * xf[i];
+      std::vector<double> s_factor(n, 1.0);  // relative change of S, applied to the S@<x>mm channels
+      if (ch.count("dS_dflexion") && ch.count("S")) {
+        for (const std::string side : {"", "_medial", "_lateral"}) {
+          auto a = ch.find("S" + side), d = ch.find("dS" + side + "_dflexion");
+          if (a == ch.end() || d == ch.end()) continue;
+          for (int i = 0; i < n; ++i) {
+            const double before = a->second[i];
+            a->second[i] = std::max(0.05 * before, before + d->second[i] * dtheta[i]);
+            if (side.empty() && before > 0) s_factor[i] = a->second[i] / before;
+          }
+        }
+        for (auto& [name, v] : ch)
+          if (startsWith(name, "S@"))
+            for (int i = 0; i < n; ++i) v[i] *= s_factor[i];
+      }
       for (auto& [name, v] : ch) {
-        if (isAreaChannel(name)) {
-          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
-        } else if (name == "dS_dflexion" || name == "dS_dap") {
-          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
+        if (isAreaChannel(name) || name == "dS_dflexion" || name == "dS_dap" || startsWith(name, "dS_medial_d") ||
+            startsWith(name, "dS_lateral_d")) {
+          if (o.area_variation > 0 && !endsWith(name, "_dt"))
+            for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
         } else if (name == "knee_flexion") {
-          for (int i = 0; i < n; ++i) v[i] += o.flexion_variation * xf[i];
+          for (int i = 0; i < n; ++i) v[i] += dtheta[i];
         } else if (startsWith(name, "GRF:") || startsWith(name, "EMG:")) {
           for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.load_variation * xl[i]);
         }
@@ -173,8 +191,17 @@ double estimateBetweenCycleScatter(const std::vector<GapTrial>& trials, int bins
 }
 
 std::vector<BlindCase> getDefaultBlindCases() {
-  // Sizes chosen so that each effect changes the force by roughly the noise level (100 N) or more
-  // once the baseline has absorbed what it can; BlindOutcome::injected_rms reports the change.
+  // Sizes for JW's real inputs (the paper workflow's areas: nearly flat over the stance, a
+  // function of the flexion; K ~ 1.5 MPa over both trials). Where a plausible size changes the force
+  // by about the noise (100 N) or more once the baseline has absorbed what it can, that size; where
+  // no plausible size can (ml_compartments: JW's medial and lateral areas are within 2 %; kinematic
+  // input errors: the area hardly depends on flexion or AP position over the stance), a realistic
+  // size (4 deg of flexion offset, 20 % of flexion gain, 3 mm of AP shift), which the baseline then
+  // absorbs and the suite expects "baseline" for (BlindSuiteOptions::visible_floor). The exponent
+  // change (dm 1.5) and the time delay (0.14 s, near its 0.15 s bound) are larger than physically
+  // likely because the likely sizes are invisible on these inputs: an elastic-foundation exponent
+  // (dm 0.5) or a 0.1 s delay leaves about 30-50 N after the baseline's refit, below the 100 N noise.
+  // BlindSuiteResult::visible_rms reports what each leaves after the baseline's refit.
   auto one = [](const std::string& effect, const std::string& param, double v) {
     BlindCase c;
     c.name = effect;
@@ -187,19 +214,19 @@ std::vector<BlindCase> getDefaultBlindCases() {
   nothing.name = "nothing";
   nothing.expected = "baseline";
   v.push_back(nothing);
-  v.push_back(one("exponent", "dm", 0.7));
+  v.push_back(one("exponent", "dm", 1.5));
   v.push_back(one("radius_flexion", "rho", 0.8));
   v.push_back(one("ml_compartments", "delta", 0.6));
-  v.push_back(one("rate", "tau", 0.08));
-  v.push_back(one("time_delay", "delay", 0.03));
-  v.push_back(one("creep", "kappa", 0.9));
+  v.push_back(one("rate", "tau", 0.1));
+  v.push_back(one("time_delay", "delay", 0.14));
+  v.push_back(one("creep", "kappa", 0.2));
   v.push_back(one("flexion_offset", "offset", 0.07));
   v.push_back(one("flexion_gain", "gain", 0.2));
   v.push_back(one("ap_translation", "shift", 0.003));
-  v.push_back(one("threshold", "dh", 0.0005));
+  v.push_back(one("threshold", "dh", -0.0015));
   v.push_back(one("grf_load", "gain", 0.6));
   v.push_back(one("emg_cocontraction", "gain", 1200));
-  v.push_back(one("adhesion_jkr", "psi", 3.5e5));
+  v.push_back(one("adhesion_jkr", "psi", 5e4));
   BlindCase bump;
   bump.name = "phase_bump (outside)";
   bump.outside = "phase_bump";
@@ -224,20 +251,24 @@ std::string BlindSuiteResult::formatMarkdown() const {
   };
   s << "| injected \\ named first |";
   for (const auto& c : columns) s << " " << shortName(c) << " |";
-  s << " correct | RMS change (N) | size in CI (jackknife / asymptotic) |\n|---|";
+  s << " correct | correct or reported confusable | RMS change (N) | left after refit (N) | size in CI (jackknife / "
+       "asymptotic) |\n|---|";
   for (size_t k = 0; k < columns.size(); ++k) s << "---:|";
-  s << "---:|---:|---|\n";
+  s << "---:|---:|---:|---:|---|\n";
   for (size_t r = 0; r < rows.size(); ++r) {
-    s << "| " << rows[r] << " |";
+    const auto e = expected.find(rows[r]);
+    const bool hidden = e != expected.end() && e->second == "baseline" && rows[r] != "nothing";
+    s << "| " << rows[r] << (hidden ? " (absorbed: expect baseline)" : "") << " |";
     for (size_t k = 0; k < columns.size(); ++k) {
       const int n = counts[r][k];
       s << " " << (n ? std::to_string(n) : std::string(".")) << " |";
     }
     const auto outs = getOutcomes(rows[r]);
-    int ok = 0, est = 0, cj = 0, ca = 0;
+    int ok = 0, okc = 0, est = 0, cj = 0, ca = 0;
     std::vector<double> rms;
     for (const auto* o : outs) {
       ok += o->correct;
+      okc += o->correct_or_confusable;
       rms.push_back(o->injected_rms);
       if (o->has_estimate) ++est, cj += o->covered_jackknife, ca += o->covered;
     }
@@ -245,7 +276,11 @@ std::string BlindSuiteResult::formatMarkdown() const {
     std::ostringstream med;
     med.precision(3);
     med << (rms.empty() ? 0.0 : rms[rms.size() / 2]);
-    s << " " << ok << "/" << outs.size() << " | " << med.str() << " | ";
+    const auto v = visible_rms.find(rows[r]);
+    std::ostringstream vis;
+    vis.precision(3);
+    vis << (v == visible_rms.end() ? 0.0 : v->second);
+    s << " " << ok << "/" << outs.size() << " | " << okc << "/" << outs.size() << " | " << med.str() << " | " << vis.str() << " | ";
     if (est) s << cj << "/" << est << " / " << ca << "/" << est;
     else s << "-";
     s << " |\n";
@@ -278,6 +313,31 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
   for (const auto& e : catalogue) res.columns.push_back(e.getName());
   res.columns.push_back("baseline");
   res.columns.push_back("none of the candidates");
+  // What each case's injected component leaves once the baseline has absorbed what it can: the
+  // noise-free trials of seed 1, the baseline refitted to them, the RMS of its residual.
+  std::vector<std::string> expected;
+  for (size_t ci = 0; ci < cases.size(); ++ci) {
+    const BlindCase& bc = cases[ci];
+    SynthOptions clean = bo.synth;
+    clean.effects = bc.effects;
+    clean.outside = bc.outside;
+    clean.outside_size = bc.outside_size;
+    clean.seed = 1 + 1000003ULL * ci;
+    clean.noise_sd = clean.white_sd = 0;
+    double visible = 0;
+    if (!bc.effects.empty() || !bc.outside.empty()) {
+      std::vector<identify::Trial> trials;
+      for (const auto& g : makeSyntheticTrials(base, catalogue, sources, clean)) trials.push_back(g.trial);
+      identify::FitOptions fo = bo.diagnosis.fit;
+      fo.confidence.profile = fo.confidence.asymptotic = false;
+      fo.confidence.bootstrap_samples = 0;
+      fo.phases.clear();
+      visible = identify::fit(base, trials, fo).overall.rmse;
+    }
+    res.visible_rms[bc.name] = visible;
+    expected.push_back(!bc.effects.empty() && visible < bo.visible_floor ? std::string("baseline") : bc.expected);
+    res.expected[bc.name] = expected.back();
+  }
   const int total = static_cast<int>(cases.size()) * bo.seeds;
   std::vector<BlindOutcome> outcomes(total);
   auto runOne = [&](int item) {
@@ -309,13 +369,20 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
       }
     BlindOutcome& out = outcomes[item];
     out.case_name = bc.name;
-    out.expected = bc.expected;
+    out.expected = expected[ci];
     out.seed = static_cast<unsigned long long>(seed);
     out.injected_rms = n ? std::sqrt(ss / n) : 0.0;
     const GapReport rep = diagnose(base, catalogue, trials, bo.diagnosis);
     const TargetDiagnosis& d = rep.targets.front();
     out.answer = d.verdict == "baseline" || d.verdict == "none of the candidates" ? d.verdict : d.selected.front();
-    out.correct = out.answer == bc.expected;
+    out.correct = out.answer == out.expected;
+    for (const auto& cp : d.confusable) {
+      if (cp.a == out.answer) out.confusable_with_answer.push_back(cp.b);
+      if (cp.b == out.answer) out.confusable_with_answer.push_back(cp.a);
+    }
+    out.correct_or_confusable =
+        out.correct || std::find(out.confusable_with_answer.begin(), out.confusable_with_answer.end(), out.expected) !=
+                           out.confusable_with_answer.end();
     out.rmse_baseline = d.baseline_rmse_heldout;
     out.rmse_final = d.shrinkage.front().rmse_final;
     if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {

@@ -1,9 +1,11 @@
 #pragma once
 // Synthetic trials with known hidden effects, for testing the gap diagnosis blind.
 //
-// Each synthetic recording starts from a real recording's inputs (contact areas, flexion, GRF,
-// EMG: from the contact-area tool's files, or the interim stand-in of interim_inputs.hpp), varied
-// smoothly between replicates the way repeated trials vary, and gets a "measured" force made by
+// Each synthetic recording starts from a real recording's inputs (contact areas from the paper
+// workflow's files, flexion, GRF, EMG), varied smoothly between replicates the way repeated trials
+// vary -- the flexion by a smooth offset, the areas with it through their flexion derivative when
+// the trial has dS_dflexion (the model's areas are a function of the flexion), GRF and EMG by a
+// smooth factor -- and gets a "measured" force made by
 // the baseline law at chosen parameters, extended by chosen effects at chosen sizes (or by a force
 // component outside the catalogue), plus noise at the real between-trial level: smooth noise of
 // the measured force's between-cycle scatter and a small white part.
@@ -41,8 +43,13 @@ struct SynthOptions {
   double noise_time = 0.05;       ///< s: its correlation time.
   double white_sd = 5;            ///< N: white measurement noise.
   int replicates = 3;             ///< Synthetic recordings per source recording.
-  double area_variation = 0.05;   ///< Relative SD of the smooth factor on the areas between replicates.
-  double flexion_variation = 0.03;  ///< rad: SD of a smooth offset on the flexion between replicates.
+  /// Relative SD of a smooth factor on the areas between replicates, independent of the flexion
+  /// (0: the areas vary only with the flexion; use it for areas without dS_dflexion).
+  double area_variation = 0.0;
+  /// rad: SD of a smooth offset on the flexion between replicates. With a dS_dflexion channel the
+  /// areas follow it to first order: S += dS_dflexion * offset (S_medial, S_lateral likewise with
+  /// their own derivatives; the S@<x>mm channels by the relative change of S).
+  double flexion_variation = 0.03;
   double load_variation = 0.05;   ///< Relative SD of the smooth factor on GRF and EMG between replicates.
   unsigned long long seed = 1;
 };
@@ -72,7 +79,8 @@ struct BlindCase {
   std::vector<InjectedEffect> effects;  ///< Injected catalogue effects (empty: none).
   std::string outside;       ///< A force component outside the catalogue (SynthOptions::outside).
   double outside_size = 0;
-  /// The right answer: an effect name, "baseline" or "none of the candidates".
+  /// The right answer: an effect name, "baseline" or "none of the candidates". runBlindSuite turns
+  /// an effect's expectation into "baseline" when the baseline absorbs it (BlindSuiteOptions::visible_floor).
   std::string expected;
 };
 
@@ -86,6 +94,10 @@ struct BlindOutcome {
   unsigned long long seed = 0;
   std::string answer;        ///< The first selected effect, "baseline" or "none of the candidates".
   bool correct = false;
+  /// Effects the diagnosis reported as confusable with its answer (pairs it could not tell apart).
+  std::vector<std::string> confusable_with_answer;
+  /// The answer is right, or the diagnosis reported it confusable with the injected effect.
+  bool correct_or_confusable = false;
   double injected_rms = 0;   ///< RMS force change the injected component makes on the noise-free trials, N.
   double rmse_baseline = 0;  ///< Held-out RMSE of the baseline, N.
   double rmse_final = 0;     ///< Held-out RMSE of the selected model, N.
@@ -103,6 +115,10 @@ struct BlindSuiteResult {
   std::vector<std::string> rows;     ///< Case names, in order.
   std::vector<std::string> columns;  ///< Answers: every effect, "baseline", "none of the candidates".
   std::vector<std::vector<int>> counts;  ///< [row][column].
+  /// Per case: RMS (N) of what the injected component leaves after the baseline is refitted to the
+  /// noise-free synthetic trials of seed 1 (the part of it the data can show), and the expected answer.
+  std::map<std::string, double> visible_rms;
+  std::map<std::string, std::string> expected;
   double seconds = 0;
   /// Outcomes of one case.
   std::vector<const BlindOutcome*> getOutcomes(const std::string& case_name) const;
@@ -119,6 +135,10 @@ struct BlindSuiteOptions {
   /// Worker threads (Ipopt solves still run one at a time; the rest overlaps). Results do not
   /// depend on it.
   int threads = 2;
+  /// N: a case whose injected effect leaves less than this RMS once the baseline is refitted to
+  /// the noise-free trials cannot be seen through the noise on these inputs; its right answer is
+  /// "baseline" (the diagnosis must not claim an effect it cannot see). Default: 0.3 x 100 N.
+  double visible_floor = 30;
   std::function<void(int done, int total)> progress;
 };
 

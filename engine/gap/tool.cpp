@@ -31,6 +31,11 @@ std::map<std::string, double> pairs(const xml::Node& n) {
   return m;
 }
 
+// The contact-area file a KneeContactWorkflow writes for trial @p name under @p dir.
+std::string workflowAreaFile(const std::string& dir, const std::string& name) {
+  return (fs::path(dir) / name / (name + "_contact_area.sto")).string();
+}
+
 std::string join(const std::set<std::string>& s) {
   std::string o;
   for (const auto& x : s) o += (o.empty() ? "" : ", ") + x;
@@ -40,7 +45,7 @@ std::string join(const std::set<std::string>& s) {
 TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   static const std::set<std::string> known = {"knee_forces", "contact_area",   "c3d",        "kinematics",
                                               "flexion_column", "flexion_source", "events", "event_times",
-                                              "time_range",  "gon_calibration"};
+                                              "time_range",  "gon_calibration", "grf_from_knee_forces"};
   for (const xml::Node& c : t.children())
     if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known) + ")");
   TrialSource s;
@@ -51,7 +56,6 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   s.knee_forces = resolve(dir, t.childText("knee_forces"));
   if (s.knee_forces.empty()) t.fail("missing <knee_forces>");
   s.contact_area = resolve(dir, t.childText("contact_area"));
-  if (s.contact_area.empty()) t.fail("missing <contact_area> (the contact-area tool's .sto for this trial)");
   s.c3d = resolve(dir, t.childText("c3d"));
   s.kinematics = resolve(dir, t.childText("kinematics"));
   s.flexion_column = t.childText("flexion_column", s.flexion_column);
@@ -63,11 +67,19 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
     if (v.size() != 2 || !(v[0] < v[1])) r.fail("expected two increasing times (start end), got '" + r.text() + "'");
     s.time_range = {v[0], v[1]};
   }
+  if (xml::Node g = t.child("grf_from_knee_forces"); g && !g.text().empty()) {
+    s.knee_forces_grf_scale = g.toDouble();
+    if (!(s.knee_forces_grf_scale > 0) || !std::isfinite(s.knee_forces_grf_scale))
+      g.fail("expected newtons per unit of the GRFz column (> 0; JW: 2000), got " + g.text());
+  }
   if (xml::Node g = t.child("gon_calibration"); g && !g.text().empty()) {
     const auto v = g.toDoubles();
-    if (v.size() != 2) g.fail("expected 2 numbers (degrees per volt, offset in degrees), got " + std::to_string(v.size()));
-    s.gon_scale = v[0];
-    s.gon_offset = v[1];
+    if (v.size() != 2)
+      g.fail("expected 2 numbers (gain of the knee flexion per goniometer degree, offset in degrees), got " +
+             std::to_string(v.size()));
+    s.goniometer.gain = v[0];
+    s.goniometer.offset_deg = v[1];
+    s.goniometer.source = "given in the setup";
   }
   return s;
 }
@@ -85,7 +97,7 @@ GapSetup readGapSetup(const std::string& path) {
       "results_directory", "plugins",     "law",          "free_parameters", "assumed_values", "parameter_values",
       "effects",           "targets",     "body_mass",    "cv_folds",        "screen_top",     "max_effects",
       "alpha",             "structure_alpha", "min_relative_improvement", "confidence_level", "bootstrap_samples",
-      "plots",             "emg_flexors", "emg_extensors", "trials"};
+      "plots",             "emg_flexors", "emg_extensors", "trials", "workflow_results"};
   for (const xml::Node& c : tool.children())
     if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known) + ")");
   GapSetup s;
@@ -94,6 +106,7 @@ GapSetup readGapSetup(const std::string& path) {
   s.results_directory = resolve(dir, tool.childText("results_directory", s.name + "_results"));
   if (xml::Node p = tool.child("plugins")) s.plugins = p.toWords();
   s.law = tool.childText("law", s.law);
+  s.workflow_results = resolve(dir, tool.childText("workflow_results"));
   if (xml::Node e = tool.child("effects")) {
     s.effects = e.toWords();
     if (s.effects.size() == 1 && s.effects[0] == "all") s.effects.clear();
@@ -138,12 +151,22 @@ GapSetup readGapSetup(const std::string& path) {
   for (const xml::Node& t : trials.children()) {
     if (t.name() != "Trial") t.fail("unknown element <" + t.name() + "> in trials (expected Trial)");
     TrialSource ts = readTrial(t, dir);
+    if (ts.contact_area.empty() && s.workflow_results.empty())
+      t.fail("missing <contact_area> (the contact-area tool's .sto for this trial) and no <workflow_results>");
     ts.emg_flexors = flexors;
     ts.emg_extensors = extensors;
     s.trials.push_back(ts);
   }
   if (s.trials.empty()) trials.fail("expected at least one <Trial>, got none");
+  if (!s.workflow_results.empty())
+    for (auto& t : s.trials)
+      if (t.contact_area.empty()) t.contact_area = workflowAreaFile(s.workflow_results, t.name);
   return s;
+}
+
+void setWorkflowResults(GapSetup& setup, const std::string& directory) {
+  setup.workflow_results = directory;
+  for (auto& t : setup.trials) t.contact_area = workflowAreaFile(directory, t.name);
 }
 
 void setContactAreaDirectory(GapSetup& setup, const std::string& directory) {

@@ -17,6 +17,8 @@
 //     <alpha>0.05</alpha>  <structure_alpha>0.01</structure_alpha>
 //     <min_relative_improvement>0.05</min_relative_improvement>  <confidence_level>0.95</confidence_level>
 //     <bootstrap_samples>200</bootstrap_samples>           of the baseline identification
+//     <workflow_results>results/paper_workflow</workflow_results>   a KneeContactWorkflow's results:
+//                            each trial without <contact_area> reads <dir>/<name>/<name>_contact_area.sto
 //     <plots>true</plots>
 //     <emg_flexors>bifeml semimem medgas latgas</emg_flexors>  <emg_extensors>vasmed vaslat rf</emg_extensors>
 //     <trials>
@@ -24,7 +26,9 @@
 //         <knee_forces>...csv</knee_forces>  <contact_area>...sto</contact_area>
 //         <c3d>...c3d</c3d>  <kinematics>...mot</kinematics>  <flexion_column>knee_flexion</flexion_column>
 //         <flexion_source>auto</flexion_source>  <events>auto</events>  <event_times>...</event_times>
-//         <time_range>t0 t1</time_range>  <gon_calibration>scale offset</gon_calibration>
+//         <time_range>t0 t1</time_range>
+//         <gon_calibration>gain offset_deg</gon_calibration>  knee flexion = offset + gain x goniometer
+//                            degrees (io/goniometer.hpp; GON in volts converted first; default JW's)
 //       </Trial>
 //     </trials>
 //   </GapTool>
@@ -47,6 +51,9 @@ struct GapSetup {
   std::string results_directory = "gap_results";  ///< Absolute, or relative to the working directory.
   std::vector<std::string> plugins{"hertz", "gap_effects"};
   std::string law = "hertz";
+  /// A KneeContactWorkflow's results folder ("" none): trials without a contact-area file read
+  /// <workflow_results>/<name>/<name>_contact_area.sto (setWorkflowResults).
+  std::string workflow_results;
   std::vector<std::string> effects;  ///< Empty: every loaded effect.
   std::vector<TrialSource> trials;
   DiagnosisOptions options;
@@ -60,6 +67,12 @@ GapSetup readGapSetup(const std::string& path);
 /// Replaces the folder of every trial's contact-area file by @p directory (keeping file names):
 /// how `kneesim gap --areas DIR` points a setup at the contact-area tool's output.
 void setContactAreaDirectory(GapSetup& setup, const std::string& directory);
+
+/// Points every trial at a KneeContactWorkflow's results folder @p directory: its contact-area
+/// file becomes <directory>/<name>/<name>_contact_area.sto (the workflow's output: areas at every
+/// threshold, the flexion coordinate and, with area_derivatives, dS_dflexion and dS_dap). How
+/// `kneesim gap --workflow-results DIR` and the workflow's own gap step use its areas.
+void setWorkflowResults(GapSetup& setup, const std::string& directory);
 
 /// What runGap produced.
 struct GapRunResult {

@@ -290,7 +290,7 @@ GapTrial assembleTrial(const TrialSource& src) {
     ch[lab] = std::move(v);
   }
   for (const auto& [k, v] : area.header)
-    if (k == "threshold") {
+    if (k == "threshold" || k == "threshold_m") {
       double h;
       if (tryParseDouble(v, h)) ch["S_threshold"] = std::vector<double>(n, h);
     }
@@ -323,20 +323,12 @@ GapTrial assembleTrial(const TrialSource& src) {
     g.notes.push_back("knee_flexion from " + src.kinematics + " column " + src.flexion_column);
   } else if (fsrc == "gon") {
     std::vector<double> gon = interpolate(kf.time, kf.goniometer, t, half);
-    double mn = 1e300, mx = -1e300;
-    for (double x : gon) {
+    for (double x : gon)
       if (!std::isfinite(x))
         throw InputError({src.knee_forces, 0, "GON"}, who + ": flexion from GON: expected a GON column, got none or NaN");
-      mn = std::min(mn, x);
-      mx = std::max(mx, x);
-    }
-    if (mn >= 3 && mx <= 10 && mx - mn < 5) {
-      for (double& x : gon) x = src.gon_scale * x + src.gon_offset;
-      g.notes.push_back("knee_flexion from GON, which is in volts in this file (" + fmt(mn) + "-" + fmt(mx) +
-                        " V): degrees = " + fmt(src.gon_scale, 6) + " V " + fmt(src.gon_offset, 6));
-    } else {
-      g.notes.push_back("knee_flexion from GON (degrees)");
-    }
+    std::string note;
+    gon = io::calcKneeFlexionDeg(gon, src.goniometer, &note);
+    g.notes.push_back(note);
     for (double& x : gon) x *= M_PI / 180;
     ch["knee_flexion"] = gon;
   } else {
@@ -419,6 +411,21 @@ GapTrial assembleTrial(const TrialSource& src) {
       const auto [mn, mx] = std::minmax_element(raw.begin(), raw.end());
       g.trial.channels["EMG_range:" + lab] = std::vector<double>(n, *mx - *mn);  // removed by normalizeEmg
     }
+  }
+
+  if (!have_c3d && src.knee_forces_grf_scale > 0) {
+    std::vector<double> grf = interpolate(kf.time, kf.grfz, t, half);
+    bool finite = true;
+    for (double& x : grf) {
+      finite = finite && std::isfinite(x);
+      x = std::max(0.0, x * src.knee_forces_grf_scale);
+    }
+    if (!finite)
+      throw InputError({src.knee_forces, 0, "GRFz"}, who + ": GRF from the knee forces: expected a GRFz (or GRF) "
+                                                           "column with finite values, got none or NaN");
+    ch["GRF:vertical"] = grf;
+    g.notes.push_back("GRF:vertical from the knee-force file's GRFz column x " + fmt(src.knee_forces_grf_scale) +
+                      " N (force plate 1's vertical force; assumed under the instrumented foot)");
   }
 
   // ---- events and cycles

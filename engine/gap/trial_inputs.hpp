@@ -7,7 +7,9 @@
 // The contact-area channels come from the .sto the contact-area tool writes per trial (columns
 // time, S, S_medial, S_lateral (m^2), dmin, dmin_medial, dmin_lateral (m), centroids, dS_dt and
 // "S@2mm", "S@3mm", "S@5mm", "S@6mm"); every column of that file becomes a channel. Flexion comes
-// from that file's knee_flexion column, an IK motion, or the eKnee goniometer (GON).
+// from that file's knee_flexion column, an IK motion, or the eKnee goniometer (GON, through
+// io::calcKneeFlexionDeg). The KneeContactWorkflow writes such files with the flexion and, with
+// area_derivatives, the exact dS_dflexion and dS_dap.
 
 #include <map>
 #include <string>
@@ -15,6 +17,7 @@
 
 #include "core/error.hpp"
 #include "identify/trial.hpp"
+#include "io/goniometer.hpp"
 
 namespace kneesim::gap {
 
@@ -63,7 +66,7 @@ struct GapTrial {
   std::vector<double> cycle_phase;
   std::vector<int> cycle_index;      ///< Per frame: index into cycles.
   std::string event_source;          ///< "force plates", "knee force", "flexion" or "setup".
-  bool interim_inputs = false;       ///< The contact areas are an interim stand-in (see interim_inputs.hpp).
+  bool interim_inputs = false;       ///< The area file is marked kneesim_interim=true (a stand-in, not computed areas).
   std::vector<std::string> notes;    ///< Where each channel came from, in plain language.
 
   /// Number of frames.
@@ -82,10 +85,14 @@ struct TrialSource {
   /// "auto" (the area file's knee_flexion column, else the kinematics, else GON), "area",
   /// "kinematics" or "gon".
   std::string flexion_source = "auto";
-  /// GON in degrees = gon_scale * volts + gon_offset when the CSV's GON is in volts (detected:
-  /// every value within 3-10 and a span under 5). Defaults: regression of ngait_og3's GON (degrees)
-  /// on its C3D goniometer channel (volts), r = 0.996.
-  double gon_scale = 38.1828, gon_offset = -200.218;
+  /// Flexion from GON (flexion source "gon"): io::calcKneeFlexionDeg with this calibration, the
+  /// same the workflow uses (volts -> goniometer degrees when the CSV is in volts, then the line to
+  /// the model's knee flexion). Default: JW's (io/goniometer.hpp).
+  io::GoniometerCalibration goniometer;
+  /// N per unit of the knee-force CSV's GRFz column, used as GRF:vertical when the trial has no
+  /// C3D (0: not used). JW: io::kJwCsvGrfNewtonsPerUnit; the column is force plate 1, so this
+  /// assumes plate 1 was under the instrumented (right) foot (true in stairupf1, not in ngait_og3).
+  double knee_forces_grf_scale = 0;
   /// "auto" (plates for gait and stair with a C3D, flexion for chair, else the knee force),
   /// "plates", "force", "flexion" or "times" (event_times).
   std::string events = "auto";

@@ -17,6 +17,11 @@ struct KneeForceCoefficients {
   static KneeForceCoefficients defaults() { return {}; }
 };
 
+/// Newtons per unit of the GRFz (GRF) column of JW's knee-force CSVs: the column is force plate 1's
+/// vertical force divided by 2000 (against the C3D's Fz1: gain 0.000500 N^-1 on ngait_og3, where
+/// plate 1 is under the left foot, r = 0.998; 0.000499 on stairupf1, right foot, r = 0.9995).
+constexpr double kJwCsvGrfNewtonsPerUnit = 2000.0;
+
 /// Pound-force in newtons.
 constexpr double kNewtonsPerPoundForce = 4.4482216152605;
 

@@ -89,13 +89,27 @@ WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
   if (xml::Node g = t.child("goniometer")) {
     ++sources;
     s.source = WorkflowTrialSpec::Source::goniometer;
-    checkChildren(g, {"scale", "offset_deg", "calibrate_on"});
-    s.calibrate_on = g.childText("calibrate_on");
+    checkChildren(g, {"scale", "offset_deg", "calibrate_on", "units", "volts_to_degrees"});
+    s.calibrate_on = g.child("calibrate_on") ? g.child("calibrate_on").toWords() : std::vector<std::string>{};
     if (!s.calibrate_on.empty() && (g.child("scale") || g.child("offset_deg")))
       g.fail("expected either <calibrate_on> or <scale>/<offset_deg>, got both");
-    s.gon_scale = g.childDouble("scale", 1.0);
-    s.gon_offset_deg = g.childDouble("offset_deg", 0.0);
-    if (!std::isfinite(s.gon_scale) || !std::isfinite(s.gon_offset_deg)) g.fail("expected a finite scale and offset");
+    io::GoniometerCalibration& c = s.goniometer;
+    if (g.child("scale") || g.child("offset_deg")) {
+      c.gain = g.childDouble("scale", 1.0);
+      c.offset_deg = g.childDouble("offset_deg", 0.0);
+      c.source = "given in the setup";
+    }
+    if (!std::isfinite(c.gain) || !std::isfinite(c.offset_deg)) g.fail("expected a finite scale and offset");
+    c.units = g.childText("units", "auto");
+    if (c.units != "auto" && c.units != "volts" && c.units != "degrees")
+      g.child("units").fail("expected auto, volts or degrees, got '" + c.units + "'");
+    if (xml::Node v = g.child("volts_to_degrees")) {
+      const auto w = v.toDoubles();
+      if (w.size() != 2 || !std::isfinite(w[0]) || !std::isfinite(w[1]))
+        v.fail("expected 'degrees_per_volt offset_deg', got '" + v.text() + "'");
+      c.volts_gain = w[0];
+      c.volts_offset_deg = w[1];
+    }
   }
   if (sources != 1)
     t.fail("expected exactly one kinematics source (ik_setup_file, motion_file or goniometer), got " +
@@ -178,7 +192,8 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
                        "insert_body", "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule",
                        "distance_provider", "plugins", "kinematics", "flexion_coordinate", "seating_grid_deg",
                        "body_mass", "Trial", "ContactLaw", "threshold_sensitivity", "agreement_fraction",
-                       "results_directory", "plots", "gnuplot", "plot_scripts", "threads"});
+                       "results_directory", "plots", "gnuplot", "plot_scripts", "threads", "area_derivatives",
+                       "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file"});
   s.fit.where = tool.where();
   s.model_file = resolve(dir, tool.requireChild("model_file").text());
   ContactAreaSetup& c = s.contact;
@@ -218,6 +233,25 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
   }
   c.hinge.where = tool.where();
   if (xml::Node n = tool.child("body_mass")) s.body_mass = readPositive(n, "a body mass (kg)");
+  s.area_derivatives = tool.childBool("area_derivatives", false);
+  if (xml::Node n = tool.child("flexion_step_deg")) {
+    const double d = n.toDouble();
+    if (!(d > 0 && d <= 5)) n.fail("expected a flexion step in (0, 5] degrees, got " + n.text());
+    s.flexion_step = d * kDeg;
+  }
+  if (xml::Node n = tool.child("flexion_step")) {
+    if (tool.child("flexion_step_deg")) n.fail("expected <flexion_step> or <flexion_step_deg>, got both");
+    s.flexion_step = n.toDouble();
+    if (!(s.flexion_step > 0) || !std::isfinite(s.flexion_step))
+      n.fail("expected a step > 0 in the flexion coordinate's SI unit, got " + n.text());
+  }
+  if (xml::Node n = tool.child("ap_step")) {
+    const double d = n.toDouble();
+    if (!(d > 0 && d <= 2e-3)) n.fail("expected an AP step in (0, 0.002] m, got " + n.text());
+    s.ap_step = d;
+  }
+  if (xml::Node n = tool.child("gap_setup_file"))
+    for (const std::string& f : n.toWords()) s.gap_setup_files.push_back(resolve(dir, f));
   s.fit.body_mass = s.body_mass;
   for (const xml::Node& t : tool.children("Trial")) {
     s.trials.push_back(readTrial(t, dir));
@@ -227,14 +261,14 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
   if (s.trials.empty()) tool.fail("expected at least one <Trial>, got none");
   if (std::none_of(s.trials.begin(), s.trials.end(), [](const WorkflowTrialSpec& t) { return t.fit; }))
     tool.fail("expected at least one trial with <fit>true</fit> to identify the law on, got none");
-  for (const WorkflowTrialSpec& t : s.trials) {
-    if (t.calibrate_on.empty()) continue;
-    const auto it = std::find_if(s.trials.begin(), s.trials.end(),
-                                 [&](const WorkflowTrialSpec& o) { return o.name == t.calibrate_on; });
-    if (it == s.trials.end() || it->source == WorkflowTrialSpec::Source::goniometer)
-      throw InputError(t.where, "trial '" + t.name + "': <calibrate_on> names '" + t.calibrate_on +
-                                    "', expected a trial of this setup whose kinematics come from IK or a motion");
-  }
+  for (const WorkflowTrialSpec& t : s.trials)
+    for (const std::string& ref : t.calibrate_on) {
+      const auto it = std::find_if(s.trials.begin(), s.trials.end(),
+                                   [&](const WorkflowTrialSpec& o) { return o.name == ref; });
+      if (it == s.trials.end() || it->source == WorkflowTrialSpec::Source::goniometer)
+        throw InputError(t.where, "trial '" + t.name + "': <calibrate_on> names '" + ref +
+                                      "', expected a trial of this setup whose kinematics come from IK or a motion");
+    }
   if (xml::Node l = tool.child("ContactLaw")) readLaw(l, s);
   s.threshold_sensitivity = tool.childBool("threshold_sensitivity", true);
   if (xml::Node n = tool.child("agreement_fraction")) {
@@ -460,6 +494,133 @@ contact::ContactSeries calcSeriesInParallel(const contact::ContactAreaCalculator
   return series;
 }
 
+bool isRotational(const model::ModelPtr& model, const WorkflowSetup& setup) {
+  const int c = model->findCoordinate(setup.flexion_coordinate);
+  return c >= 0 && model->coordinates[size_t(c)].motion_type == model::MotionType::Rotational;
+}
+
+// The step of the area's flexion derivative in the coordinate's SI unit.
+double getFlexionStep(const WorkflowSetup& setup, bool rotational) {
+  return std::isfinite(setup.flexion_step) ? setup.flexion_step : rotational ? 0.5 * kDeg : 1e-4;
+}
+
+// The area derivatives of one trial (WorkflowSetup::area_derivatives): dS/d(flexion) and
+// dS/d(anterior shift of the femur), total and per compartment, at the main threshold, by central
+// differences of areas at shifted poses. When every pose of the trial is a function of the flexion
+// alone (always for the hinge; for the model when its other coordinates between the components
+// follow couplers, checked pose by pose), the derivatives are computed on a flexion grid of the
+// step's spacing covering the trial and interpolated linearly to the frames (3 area evaluations
+// per grid knot instead of 4 per frame); otherwise at every frame.
+std::vector<std::pair<std::string, std::vector<double>>> calcAreaDerivatives(
+    const WorkflowSetup& setup, const WorkflowTrialSpec& spec, const model::ModelPtr& model, const ImplantMeshes& meshes,
+    const io::Storage& motion, int motion_flex, double flex_unit, const ContactAreaSetup& cs, const ContactKinematics& k,
+    const std::vector<int>& keep, const contact::ContactAreaCalculator& calculator,
+    std::vector<std::unique_ptr<contact::ContactAreaWorkspace>>& wss, std::vector<std::string>& notes,
+    const std::function<void(int, int)>& progress) {
+  const double h = getFlexionStep(setup, isRotational(model, setup)), a = setup.ap_step;
+  const std::string step_text = isRotational(model, setup) ? fmt(h / kDeg, 3) + " deg" : fmt(h, 3) + " m";
+  const Eigen::Vector3d anterior = -setup.contact.options.insert_directions.posterior.normalized();
+  const auto shift = [&](const std::vector<Eigen::Isometry3d>& X, double s) {
+    std::vector<Eigen::Isometry3d> out(X.size());
+    for (size_t i = 0; i < X.size(); ++i) out[i] = Eigen::Translation3d(s * anterior) * X[i];
+    return out;
+  };
+  // Poses at arbitrary flexion angles (rad), every other coordinate at its default or coupler.
+  ContactAreaSetup any_time = cs;
+  any_time.time_start = -HUGE_VAL;
+  any_time.time_end = HUGE_VAL;
+  const auto posesAt = [&](const std::vector<double>& flexion) {
+    std::vector<double> t(flexion.size());
+    for (size_t i = 0; i < t.size(); ++i) t[i] = double(i);
+    if (setup.kinematics != "model") return calcHingeKinematics(any_time, meshes, t, flexion).X_IF;
+    io::Storage m;
+    m.name = spec.name + " flexion only";
+    m.in_degrees = false;
+    m.labels = {"time", setup.flexion_coordinate};
+    m.data.resize(Eigen::Index(t.size()), 2);
+    for (size_t i = 0; i < t.size(); ++i) {
+      m.data(Eigen::Index(i), 0) = t[i];
+      m.data(Eigen::Index(i), 1) = flexion[i];
+    }
+    return calcModelKinematics(any_time, model, m, m.name).X_IF;
+  };
+  // The frames' flexion (rad) in the order of k.
+  std::vector<double> theta;
+  for (int row = 0; row < motion.getNumRows(); ++row) {
+    const double t = motion.data(row, 0);
+    if (t < cs.time_start - 1e-9 || t > cs.time_end + 1e-9) continue;
+    theta.push_back(motion.data(row, motion_flex) * flex_unit);
+  }
+  bool on_path = setup.kinematics != "model";
+  if (!on_path && theta.size() == k.X_IF.size()) {
+    try {
+      const std::vector<Eigen::Isometry3d> X = posesAt(theta);
+      double worst = 0;
+      for (size_t i = 0; i < X.size(); ++i)
+        worst = std::max({worst, (X[i].translation() - k.X_IF[i].translation()).norm(),
+                          (X[i].linear() - k.X_IF[i].linear()).norm() * 0.05});
+      on_path = worst < 1e-9;
+    } catch (const InputError&) {
+      on_path = false;  // an uncoupled coordinate between the components: not a function of flexion
+    }
+  }
+  const auto S = [](const contact::ContactFrame& f, int c) { return c == 0 ? f.S : c == 1 ? f.S_medial : f.S_lateral; };
+  std::vector<std::vector<double>> dflex(3, std::vector<double>(keep.size())), dap = dflex;
+  if (on_path) {
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (int i : keep) lo = std::min(lo, theta[size_t(i)]), hi = std::max(hi, theta[size_t(i)]);
+    const int k0 = int(std::floor(lo / h)) - 1, k1 = int(std::ceil(hi / h)) + 1;
+    std::vector<double> grid;
+    for (int j = k0; j <= k1; ++j) grid.push_back(j * h);
+    const std::vector<Eigen::Isometry3d> X = posesAt(grid);
+    std::vector<double> gt(grid.size());
+    for (size_t i = 0; i < gt.size(); ++i) gt[i] = double(i);
+    const contact::ContactSeries s0 = calcSeriesInParallel(calculator, wss, gt, X, progress);
+    const contact::ContactSeries sp = calcSeriesInParallel(calculator, wss, gt, shift(X, +a), progress);
+    const contact::ContactSeries sm = calcSeriesInParallel(calculator, wss, gt, shift(X, -a), progress);
+    const size_t n = grid.size();
+    for (size_t f = 0; f < keep.size(); ++f) {
+      const double x = (theta[size_t(keep[f])] - grid[0]) / h;
+      const size_t j = std::clamp<size_t>(size_t(std::floor(x)), 1, n - 3);
+      const double w = std::clamp(x - double(j), 0.0, 1.0);
+      for (int c = 0; c < 3; ++c) {
+        const auto df = [&](size_t q) { return (S(s0.frames[q + 1], c) - S(s0.frames[q - 1], c)) / (2 * h); };
+        const auto da = [&](size_t q) { return (S(sp.frames[q], c) - S(sm.frames[q], c)) / (2 * a); };
+        dflex[size_t(c)][f] = (1 - w) * df(j) + w * df(j + 1);
+        dap[size_t(c)][f] = (1 - w) * da(j) + w * da(j + 1);
+      }
+    }
+    notes.push_back("area derivatives on a " + step_text + " grid of " + setup.flexion_coordinate + " (" + std::to_string(n) +
+                    " knots): every pose of the trial is a function of it alone");
+  } else {
+    std::vector<double> tp, tm;
+    for (double v : theta) tp.push_back(v + h), tm.push_back(v - h);
+    const std::vector<Eigen::Isometry3d> X = subset(k.X_IF, keep);
+    std::vector<Eigen::Isometry3d> Xp, Xm;
+    if (setup.kinematics == "model") {
+      io::Storage plus = motion, minus = motion;
+      plus.data.col(motion_flex).array() += h / flex_unit;
+      minus.data.col(motion_flex).array() -= h / flex_unit;
+      Xp = subset(calcModelKinematics(cs, model, plus, spec.name + " flexion + step").X_IF, keep);
+      Xm = subset(calcModelKinematics(cs, model, minus, spec.name + " flexion - step").X_IF, keep);
+    }
+    std::vector<double> time(keep.size());
+    for (size_t i = 0; i < time.size(); ++i) time[i] = k.time[size_t(keep[i])];
+    const contact::ContactSeries fp = calcSeriesInParallel(calculator, wss, time, Xp, progress);
+    const contact::ContactSeries fm = calcSeriesInParallel(calculator, wss, time, Xm, progress);
+    const contact::ContactSeries ap = calcSeriesInParallel(calculator, wss, time, shift(X, +a), progress);
+    const contact::ContactSeries am = calcSeriesInParallel(calculator, wss, time, shift(X, -a), progress);
+    for (size_t f = 0; f < keep.size(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        dflex[size_t(c)][f] = (S(fp.frames[f], c) - S(fm.frames[f], c)) / (2 * h);
+        dap[size_t(c)][f] = (S(ap.frames[f], c) - S(am.frames[f], c)) / (2 * a);
+      }
+    notes.push_back("area derivatives at every frame (the poses depend on more than " + setup.flexion_coordinate + ")");
+  }
+  return {{"dS_dflexion", dflex[0]}, {"dS_medial_dflexion", dflex[1]}, {"dS_lateral_dflexion", dflex[2]},
+          {"dS_dap", dap[0]},        {"dS_medial_dap", dap[1]},        {"dS_lateral_dap", dap[2]}};
+}
+
 struct TrialState {
   WorkflowTrialSpec spec;
   WorkflowTrialResult result;
@@ -485,6 +646,16 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
   // One workspace per thread (each builds the provider's structures once for the whole run).
   std::vector<std::unique_ptr<contact::ContactAreaWorkspace>> wss;
   for (int j = 0; j < std::max(1, setup.threads); ++j) wss.push_back(calculator->createWorkspace());
+  // The area derivatives need only the main threshold: a calculator without the extra ones
+  // searches a narrower band.
+  std::unique_ptr<contact::ContactAreaCalculator> derivative_calculator;
+  std::vector<std::unique_ptr<contact::ContactAreaWorkspace>> derivative_wss;
+  if (setup.area_derivatives) {
+    ContactAreaSetup ds = setup.contact;
+    ds.options.extra_thresholds.clear();
+    derivative_calculator = makeContactAreaCalculator(ds, meshes, registry);
+    for (int j = 0; j < std::max(1, setup.threads); ++j) derivative_wss.push_back(derivative_calculator->createWorkspace());
+  }
   for (const std::string& p : setup.law_plugins) registry.loadPlugin(p, {setup.setup_file, 0, "ContactLaw/plugins"});
   const identify::ContactLaw law =
       identify::ContactLaw::fromRegistry(registry, setup.law, {setup.setup_file, 0, "ContactLaw/name"});
@@ -549,31 +720,32 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       st.motion = io::readStorage(spec.motion_file);
       st.motion_label = spec.motion_file;
     } else {
-      // Flexion from the goniometer: scale and offset as given, or a line fitted on another trial.
-      double a = spec.gon_offset_deg, b = spec.gon_scale;
+      // Flexion from the goniometer (io/goniometer.hpp): volts to goniometer degrees when the file
+      // is in volts, then the line to the model's flexion, as given or fitted on other trials.
+      io::GoniometerCalibration cal = spec.goniometer;
       if (!spec.calibrate_on.empty()) {
-        const auto it = std::find_if(states.begin(), states.end(),
-                                     [&](const TrialState& o) { return o.spec.name == spec.calibrate_on; });
-        const WorkflowTrialResult& ref = it->result;
-        std::vector<double> flex_deg;
-        for (double f : ref.flexion) flex_deg.push_back(flex_rot ? f / kDeg : f);
-        const LineFit line = fitLine(ref.forces.goniometer, flex_deg);
-        if (line.n < 10 || !(std::abs(line.r) > 0.9))
-          throw InputError(spec.where, who + "the goniometer of '" + spec.calibrate_on + "' does not follow its " +
-                                           setup.flexion_coordinate + " (r = " + fmt(line.r, 3) + " over " +
-                                           std::to_string(line.n) + " frames, expected |r| > 0.9): no calibration");
-        a = line.a;
-        b = line.b;
-        r.gon_a = a;
-        r.gon_b = b;
-        r.notes.push_back("flexion from the goniometer: " + setup.flexion_coordinate + " = " + fmt(a, 5) + " + " +
-                          fmt(b, 5) + " * GON (deg), fitted on '" + spec.calibrate_on + "' (r = " + fmt(line.r, 4) +
-                          ", residual RMS " + fmt(line.rms, 3) + " deg over " + std::to_string(line.n) +
-                          " frames); assumes the same gain and offset in this trial");
-      } else {
-        r.notes.push_back("flexion from the goniometer: " + setup.flexion_coordinate + " = " + fmt(a) + " + " +
-                          fmt(b) + " * GON (deg)");
+        std::vector<io::GoniometerPairs> pairs;
+        for (const std::string& ref_name : spec.calibrate_on) {
+          const auto it = std::find_if(states.begin(), states.end(),
+                                       [&](const TrialState& o) { return o.spec.name == ref_name; });
+          const WorkflowTrialResult& ref = it->result;
+          io::GoniometerPairs p;
+          p.trial = ref_name;
+          p.goniometer = ref.forces.goniometer;
+          for (double f : ref.flexion) p.flexion_deg.push_back(flex_rot ? f / kDeg : f);
+          pairs.push_back(std::move(p));
+        }
+        cal = io::fitGoniometerCalibration(pairs, cal, spec.where);
+        if (!(std::abs(cal.r) > 0.9))
+          throw InputError(spec.where, who + "the goniometer " + cal.source + " does not follow the " +
+                                           setup.flexion_coordinate + " (r = " + fmt(cal.r, 3) + " over " +
+                                           std::to_string(cal.frames) + " frames, expected |r| > 0.9): no calibration");
       }
+      std::string note;
+      const std::vector<double> flex_deg = io::calcKneeFlexionDeg(forces.goniometer, cal, &note);
+      r.goniometer = cal;
+      r.goniometer_in_volts = io::usesVolts(forces.goniometer, cal);
+      r.notes.push_back(note + (spec.calibrate_on.empty() ? "" : "; assumes the same sensor, gain and offset in this trial"));
       st.motion.name = spec.name + " flexion from the goniometer";
       st.motion.in_degrees = true;
       st.motion.labels = {"time", setup.flexion_coordinate};
@@ -583,9 +755,8 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       if (rows.empty()) throw InputError(spec.where, who + "no goniometer values (GON) in " + spec.knee_forces_file);
       st.motion.data.resize(Eigen::Index(rows.size()), 2);
       for (size_t k = 0; k < rows.size(); ++k) {
-        const double g = forces.goniometer[size_t(rows[k])];
         st.motion.data(Eigen::Index(k), 0) = forces.time[size_t(rows[k])];
-        st.motion.data(Eigen::Index(k), 1) = a + b * g;
+        st.motion.data(Eigen::Index(k), 1) = flex_deg[size_t(rows[k])];
       }
       st.motion_label = spec.name + " goniometer of " + spec.knee_forces_file;
       outputs.addContents((fs::path(trialDir(spec.name)) / (spec.name + "_motion.mot")).string(),
@@ -620,24 +791,31 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     if (motion_flex < 0)
       throw InputError(spec.where, who + "the motion " + st.motion_label + " has no column '" + setup.flexion_coordinate + "'");
     const double flex_unit = st.motion.in_degrees && flex_rot ? kDeg : 1.0;
-    ContactKinematics k;
-    if (setup.kinematics == "model") {
-      k = calcModelKinematics(cs, model, st.motion, st.motion_label,
-                              [&](const std::string& w, int d, int t) { progress(w + " " + spec.name, d, t); });
-    } else {
+    // The poses of the trial's frames with the flexion shifted by dflex (rad): 0 for the areas,
+    // +-a step for their derivative along flexion (through the model's couplers or the hinge).
+    const auto calcPoses = [&](double dflex) {
+      const auto prog = [&](const std::string& w, int d, int t) {
+        progress(w + " " + spec.name + (dflex != 0 ? " (flexion step)" : ""), d, t);
+      };
+      if (setup.kinematics == "model") {
+        if (dflex == 0) return calcModelKinematics(cs, model, st.motion, st.motion_label, prog);
+        io::Storage shifted = st.motion;
+        shifted.data.col(motion_flex).array() += dflex / flex_unit;
+        return calcModelKinematics(cs, model, shifted, st.motion_label, prog);
+      }
       std::vector<double> t_all, f_all;
       for (int row = 0; row < st.motion.getNumRows(); ++row) {
         const double t = st.motion.data(row, 0);
         if (t < spec.time_start - 1e-9 || t > spec.time_end + 1e-9) continue;
         t_all.push_back(t);
-        f_all.push_back(st.motion.data(row, motion_flex) * flex_unit);
+        f_all.push_back(st.motion.data(row, motion_flex) * flex_unit + dflex);
       }
       if (t_all.empty())
         throw InputError(spec.where, who + "time range " + fmt(spec.time_start) + " to " + fmt(spec.time_end) +
                                          " s does not overlap the motion " + st.motion_label);
-      k = calcHingeKinematics(cs, meshes, t_all, f_all,
-                              [&](const std::string& w, int d, int t) { progress(w + " " + spec.name, d, t); });
-    }
+      return calcHingeKinematics(cs, meshes, t_all, f_all, prog);
+    };
+    const ContactKinematics k = calcPoses(0.0);
     r.seconds_kinematics = secondsSince(t0);
     r.kinematics_description = k.description;
     for (const std::string& w : k.warnings)  // model warnings repeat for every trial: once is enough
@@ -669,6 +847,15 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     r.contact = calcSeriesInParallel(*calculator, wss, r.time, X_IF,
                                      [&](int d, int t) { progress("area " + spec.name, d, t); });
     r.seconds_area = secondsSince(t0);
+
+    // ---- derivatives of the area along flexion and along an anterior shift of the femur
+    if (setup.area_derivatives) {
+      t0 = Clock::now();
+      r.area_derivatives = calcAreaDerivatives(setup, spec, model, meshes, st.motion, motion_flex, flex_unit, cs, k,
+                                               keep, *derivative_calculator, derivative_wss, r.notes,
+                                               [&](int d, int t) { progress("area derivatives " + spec.name, d, t); });
+      r.seconds_area_derivatives = secondsSince(t0);
+    }
 
     // ---- the identification's view
     identify::Trial& tr = r.trial;
@@ -781,9 +968,20 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     std::vector<std::pair<std::string, std::vector<double>>> extra = {{setup.flexion_coordinate, r.flexion}};
     for (const auto& c : r.kinematics_columns)
       if (c.first != "flexion") extra.push_back(c);
-    const io::Storage area = contact::makeContactStorage(
-        r.contact, *calculator, r.name + "_contact_area", extra,
-        {{"setup_file", setup.setup_file}, {"kinematics", r.kinematics_description}});
+    for (const auto& c : r.area_derivatives) extra.push_back(c);
+    std::vector<std::pair<std::string, std::string>> header = {{"setup_file", setup.setup_file},
+                                                               {"kinematics", r.kinematics_description},
+                                                               {"flexion_column", setup.flexion_coordinate + (flex_rot ? " (rad)" : "")}};
+    if (!r.area_derivatives.empty())
+      header.emplace_back("area_derivatives",
+                          std::string("dS*_dflexion (m^2/") + (flex_rot ? "rad" : "m") +
+                              "): central differences of the areas at the main threshold with " +
+                              setup.flexion_coordinate + " shifted by +-" +
+                              (flex_rot ? fmt(getFlexionStep(setup, true) / kDeg, 4) + " deg"
+                                        : fmt(getFlexionStep(setup, false), 4) + " m") +
+                              " (" + setup.kinematics + " kinematics); dS*_dap (m^2/m): with the femoral component "
+                              "translated by +-" + fmt(setup.ap_step * 1e3, 4) + " mm along the insert's anterior direction");
+    const io::Storage area = contact::makeContactStorage(r.contact, *calculator, r.name + "_contact_area", extra, header);
     outputs.addContents((fs::path(dir) / (r.name + "_contact_area.sto")).string(), io::formatStorage(area));
 
     io::Storage f;
@@ -976,6 +1174,41 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
         p.series.push_back(ss);
         plots.push_back(p);
       }
+      // Goniometer calibrations: the reference trials' flexion against the goniometer's degrees,
+      // the fitted line, the goniometer's own degrees (y = x) and the calibrated trial's range.
+      for (const TrialState& st : states) {
+        if (st.spec.source != WorkflowTrialSpec::Source::goniometer || st.spec.calibrate_on.empty() || !flex_rot) continue;
+        const io::GoniometerCalibration& cal = st.result.goniometer;
+        Plot p;
+        p.file = pdir + "/goniometer_calibration_" + st.spec.name + ".png";
+        p.title = "Goniometer to " + setup.flexion_coordinate + ": " + fmt(cal.offset_deg, 4) + " + " + fmt(cal.gain, 4) +
+                  " x goniometer deg (r = " + fmt(cal.r, 4) + ", " + fmt(cal.rms_deg, 3) + " deg RMS)";
+        p.xlabel = "goniometer (deg; volts x " + fmt(cal.volts_gain, 6) + " " + fmt(cal.volts_offset_deg, 6) + ")";
+        p.ylabel = setup.flexion_coordinate + " (deg)";
+        double lo = HUGE_VAL, hi = -HUGE_VAL;
+        int c = 0;
+        for (const std::string& ref : st.spec.calibrate_on) {
+          const WorkflowTrialResult& rr =
+              std::find_if(states.begin(), states.end(), [&](const TrialState& o) { return o.spec.name == ref; })->result;
+          const std::vector<double> g = io::toGoniometerDegrees(rr.forces.goniometer, cal);
+          std::vector<double> y;
+          for (double f : rr.flexion) y.push_back(f / kDeg);
+          for (double v : g)
+            if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+          p.series.push_back({ref + " (IK)", g, y, "points", kColors[c++ % 7], 0, 1.0});
+        }
+        const std::vector<double> own = io::toGoniometerDegrees(st.result.forces.goniometer, cal);
+        double olo = HUGE_VAL, ohi = -HUGE_VAL;
+        for (double v : own)
+          if (std::isfinite(v)) olo = std::min(olo, v), ohi = std::max(ohi, v);
+        lo = std::min(lo, olo);
+        hi = std::max(hi, ohi);
+        p.series.push_back({"fitted line", {lo, hi}, {cal.calcFlexionDeg(lo), cal.calcFlexionDeg(hi)}, "lines", "#000000"});
+        p.series.push_back({"goniometer's own degrees (y = x)", {lo, hi}, {lo, hi}, "lines", "#777777", 2, 1.5});
+        p.vlines.push_back({olo, st.spec.name + " range"});
+        p.vlines.push_back({ohi, ""});
+        plots.push_back(p);
+      }
       renderPlots(plots, gp, outputs, setup.plot_scripts);
       for (const Plot& p : plots) plot_files.push_back(p.file);
     }
@@ -1101,7 +1334,13 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     json bins = json::array();
     for (const PhaseError& e : r.cycle_bins) bins.push_back(phaseJson(e));
     j["cycle_bins"] = bins;
-    if (std::isfinite(r.gon_b)) j["goniometer_calibration"] = {{"offset_deg", r.gon_a}, {"scale_deg_per_unit", r.gon_b}};
+    if (st.spec.source == WorkflowTrialSpec::Source::goniometer) {
+      const io::GoniometerCalibration& g = r.goniometer;
+      j["goniometer_calibration"] = {{"signal_units", r.goniometer_in_volts ? "volts" : "degrees"},
+                                     {"volts_to_goniometer_degrees", {{"gain_deg_per_volt", g.volts_gain}, {"offset_deg", g.volts_offset_deg}}},
+                                     {"flexion_deg", {{"offset_deg", g.offset_deg}, {"gain_per_goniometer_deg", g.gain}}},
+                                     {"source", g.source}, {"r", num(g.r)}, {"rms_deg", num(g.rms_deg)}, {"frames", g.frames}};
+    }
     j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
     trials.push_back(j);
   }
@@ -1117,6 +1356,20 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
   outputs.commit();
   report.outputs = outputs.getPaths();
   for (TrialState& st : states) report.trials.push_back(std::move(st.result));
+
+  // ---- the gap diagnoses on the contact-area files just written (their own outputs, in gap/)
+  t0 = Clock::now();
+  for (const std::string& file : setup.gap_setup_files) {
+    if (!fs::exists(file)) throw InputError({setup.setup_file, 0, "gap_setup_file"}, "gap setup file not found: " + file);
+    gap::GapSetup gs = gap::readGapSetup(file);
+    gap::setWorkflowResults(gs, setup.results_directory);
+    gs.results_directory = (fs::path(setup.results_directory) / "gap" / gs.name).string();
+    if (!setup.plots) gs.report.plots = false;
+    progress("gap " + gs.name, 0, 1);
+    report.gap.push_back(std::make_shared<const gap::GapRunResult>(gap::runGap(gs)));
+    progress("gap " + gs.name, 1, 1);
+  }
+  report.seconds_gap = secondsSince(t0);
   report.seconds_total = secondsSince(t_start);
   return report;
 }
@@ -1172,6 +1425,8 @@ void printWorkflowSummary(const WorkflowReport& r, std::ostream& os) {
   for (const std::string& w : r.warnings) os << "  warning: " << w << "\n";
   os << "  results in " << (r.summary_file.empty() ? std::string("?") : fs::path(r.summary_file).parent_path().string())
      << " (" << r.outputs.size() << " files; summary.json, plots/)\n";
+  for (const auto& g : r.gap) gap::printGapSummary(*g, os);
+  if (!r.gap.empty()) os << std::setprecision(3) << "  (gap diagnoses: " << r.seconds_gap << " s)\n";
   os.flags(flags);
   os.precision(prec);
 }

@@ -16,15 +16,19 @@
 // io::findFootContacts, identify::fit / predict, tool::renderPlots.
 
 #include <limits>
+#include <cmath>
 #include <map>
+#include <memory>
 #include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "contact/contact_area.hpp"
+#include "gap/tool.hpp"
 #include "identify/fit.hpp"
 #include "io/gait_events.hpp"
+#include "io/goniometer.hpp"
 #include "io/knee_forces.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/run.hpp"
@@ -44,10 +48,11 @@ struct WorkflowTrialSpec {
   /// C3D of the trial (resolved; "" none): aligns the force rows with its frames and gives the
   /// gait events. Defaults to the IK setup's marker file when that is a .c3d.
   std::string c3d_file;
-  /// Source::goniometer: flexion (deg) = scale * GON + offset, or calibrated by linear regression
-  /// of the flexion coordinate on GON over the trial named calibrate_on.
-  double gon_scale = 1.0, gon_offset_deg = 0.0;
-  std::string calibrate_on;
+  /// Source::goniometer: flexion from GON by io::calcKneeFlexionDeg with this calibration (GON in
+  /// volts converted to goniometer degrees first), its line given (<scale>, <offset_deg>) or
+  /// fitted on the trials named in calibrate_on (pooled, io::fitGoniometerCalibration).
+  io::GoniometerCalibration goniometer;
+  std::vector<std::string> calibrate_on;
   std::string heel_marker = "RHeel";  ///< Foot whose plate contacts define the gait events.
   /// Gait events given by hand (s): strike, toe-off, next strike (any may be NaN); empty: from the
   /// C3D's force plates.
@@ -75,6 +80,22 @@ struct WorkflowSetup {
   std::string kinematics = "model";
   std::string flexion_coordinate = "knee_flexion";
   double body_mass = 0;  ///< kg (0: errors are not reported in body weights).
+  /// Also compute the area's derivatives along the flexion coordinate and along an anterior shift
+  /// of the femoral component (central differences of S, S_medial, S_lateral at poses with the
+  /// flexion shifted by +-flexion_step through the model's couplers or the hinge, and with the
+  /// femur translated by +-ap_step along the insert's anterior direction): the channels
+  /// dS_dflexion, dS_medial_dflexion, dS_lateral_dflexion (m^2/rad), dS_dap, dS_medial_dap,
+  /// dS_lateral_dap (m^2/m) the gap diagnosis's kinematic-input effects read. Four more area
+  /// evaluations per frame (at the main threshold only).
+  bool area_derivatives = false;
+  /// Step of the flexion coordinate in its SI unit (NaN: 0.5 degree for a rotational coordinate,
+  /// 0.1 mm for a translational one).
+  double flexion_step = std::numeric_limits<double>::quiet_NaN();
+  double ap_step = 2e-4;                   ///< m.
+  /// <GapTool> setups (resolved) run after the workflow's outputs are written, on this run's
+  /// contact-area files (their workflow_results set to results_directory), each report in
+  /// <results_directory>/gap/<GapTool name>/.
+  std::vector<std::string> gap_setup_files;
   std::vector<WorkflowTrialSpec> trials;
   std::vector<std::string> law_plugins{"hertz"};  ///< Plugins registering the law.
   std::string law = "hertz";
@@ -131,9 +152,12 @@ struct WorkflowTrialResult {
   double window_agreement = std::numeric_limits<double>::quiet_NaN();  ///< Fraction of window frames.
   double cycle_agreement = std::numeric_limits<double>::quiet_NaN();   ///< Fraction of cycle frames.
   double ik_mean_rms = std::numeric_limits<double>::quiet_NaN();      ///< m, when IK ran.
-  /// Goniometer calibration (Source::goniometer with calibrate_on): flexion = a + b GON (deg).
-  double gon_a = std::numeric_limits<double>::quiet_NaN(), gon_b = std::numeric_limits<double>::quiet_NaN();
-  double seconds_ik = 0, seconds_kinematics = 0, seconds_area = 0;
+  /// The goniometer calibration used (Source::goniometer) and whether the trial's GON was in volts.
+  io::GoniometerCalibration goniometer;
+  bool goniometer_in_volts = false;
+  /// The area derivative channels (WorkflowSetup::area_derivatives), in storage order.
+  std::vector<std::pair<std::string, std::vector<double>>> area_derivatives;
+  double seconds_ik = 0, seconds_kinematics = 0, seconds_area = 0, seconds_area_derivatives = 0;
 };
 
 /// A refit with another threshold's area as S.
@@ -156,7 +180,9 @@ struct WorkflowReport {
   std::vector<std::string> warnings;
   std::string summary_file;
   std::string plots_problem;  ///< Why plots were not drawn ("" if they were or were not asked for).
-  double seconds_total = 0, seconds_fit = 0, seconds_plots = 0;
+  /// The gap diagnoses run after the workflow (WorkflowSetup::gap_setup_files).
+  std::vector<std::shared_ptr<const gap::GapRunResult>> gap;
+  double seconds_total = 0, seconds_fit = 0, seconds_plots = 0, seconds_gap = 0;
 };
 
 /// Runs the workflow. Every output is staged and committed together at the end: a failed run

@@ -53,7 +53,10 @@ static void apply_factor_in_place(int n, const double* base, int n_tangents, con
 /* ---------------------------------------------------------------- exponent */
 static const kneesim_param exponent_params[] = {
     {"dm", "1", -1.0, 2.0, 0.0, 0.2, 0, "change of the contact law's exponent on the contact area"},
-    {"S_ref", "m^2", 1e-6, 1.0, 1e-3, 1e-3, 1, "reference area at which the exponent change leaves F unchanged"},
+    /* 2500 mm^2: the middle of a TKA insert's 4 mm proximity areas (JW: 2000-2740 mm^2). A reference
+       far from the data's areas couples dm with the law's stiffness (F ~ K S_ref^-dm S^(m+dm)) and
+       makes the joint fit ill-conditioned. */
+    {"S_ref", "m^2", 1e-6, 1.0, 2.5e-3, 1e-3, 1, "reference area at which the exponent change leaves F unchanged"},
 };
 static const char* const exponent_inputs[] = {"S"};
 static int exponent_map(const double* p, const kneesim_inputs* in, const double* base, int nt, const double* tin,

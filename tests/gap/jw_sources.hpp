@@ -1,34 +1,36 @@
 #pragma once
-// JW trials with INTERIM contact areas (gap/interim_inputs.hpp: Hertz inverted on the measured
-// force), for driving synthetic trials in tests. Not real contact areas.
+// JW trials with their REAL contact areas: the paper workflow's contact-area files of ngait_og3 and
+// stairupf1 (model kinematics from IK, areas at 1-6 mm, knee_flexion, dS_dflexion, dS_dap), kept as
+// fixtures in tests/gap/fixtures/ (README there: how they were made; the workflow test checks that
+// they still match what the workflow computes).
 
 #include <string>
 #include <vector>
 
-#include "gap/interim_inputs.hpp"
 #include "gap/trial_inputs.hpp"
-#include "io/knee_forces.hpp"
-#include "io/storage.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::gap::test {
 
-inline TrialSource interimSource(const std::string& trial, const std::string& activity, bool with_c3d,
-                                 const std::string& dir) {
+/// The fixture contact-area file of a JW trial (ngait_og3 or stairupf1).
+inline std::string jwAreaFixture(const std::string& trial) {
+  return ::kneesim::test::sourcePath("tests/gap/fixtures/jw_" + trial + "_contact_area.sto");
+}
+
+/// The inputs of JW's @p trial with the workflow's areas (and its C3D when @p with_c3d).
+inline TrialSource jwSource(const std::string& trial, const std::string& activity, bool with_c3d = true) {
   TrialSource s;
   s.name = trial;
   s.activity = activity;
   s.knee_forces = ::kneesim::test::dataPath("kgc4-jw/knee-forces/jw_" + trial + "_knee_forces.csv");
   if (with_c3d) s.c3d = ::kneesim::test::dataPath("kgc4-jw/markers/jw_" + trial + ".c3d");
-  s.contact_area = dir + "/" + trial + "_interim_area.sto";
-  io::writeStorage(s.contact_area, interim::makeInterimContactAreas(io::readKneeForces(s.knee_forces)));
+  s.contact_area = jwAreaFixture(trial);
   return s;
 }
 
-/// ngait_og3 and stairupf1 with interim areas, EMG normalised.
-inline std::vector<GapTrial> jwGaitAndStair(const std::string& dir) {
-  std::vector<GapTrial> v{assembleTrial(interimSource("ngait_og3", "gait", true, dir)),
-                          assembleTrial(interimSource("stairupf1", "stair", true, dir))};
+/// ngait_og3 and stairupf1 with the workflow's areas, EMG normalised.
+inline std::vector<GapTrial> jwGaitAndStair() {
+  std::vector<GapTrial> v{assembleTrial(jwSource("ngait_og3", "gait")), assembleTrial(jwSource("stairupf1", "stair"))};
   const TrialSource defaults;
   normalizeEmg(v, defaults.emg_flexors, defaults.emg_extensors);
   return v;

@@ -39,7 +39,8 @@ TEST(GapTool, ReadsTheSetupWithPathsRelativeToIt) {
       <knee_forces>data/walk.csv</knee_forces>
       <contact_area>areas/walk.sto</contact_area>
       <time_range>1 3</time_range>
-      <gon_calibration>40 -210</gon_calibration>
+      <gon_calibration>1.2 -4</gon_calibration>
+      <grf_from_knee_forces>2000</grf_from_knee_forces>
     </Trial>
   </trials>
 </GapTool>)");
@@ -54,7 +55,10 @@ TEST(GapTool, ReadsTheSetupWithPathsRelativeToIt) {
   ASSERT_EQ(s.trials.size(), 1u);
   EXPECT_EQ(s.trials[0].knee_forces, dir + "/data/walk.csv");
   EXPECT_EQ(s.trials[0].time_range.begin, 1.0);
-  EXPECT_EQ(s.trials[0].gon_scale, 40.0);
+  EXPECT_EQ(s.trials[0].goniometer.gain, 1.2);
+  EXPECT_EQ(s.trials[0].goniometer.offset_deg, -4.0);
+  EXPECT_EQ(s.trials[0].goniometer.volts_gain, io::kJwGoniometerDegreesPerVolt);  // step 1 unchanged
+  EXPECT_EQ(s.trials[0].knee_forces_grf_scale, 2000.0);
   setContactAreaDirectory(s, "/elsewhere");
   EXPECT_EQ(s.trials[0].contact_area, "/elsewhere/walk.sto");
 }
@@ -75,19 +79,39 @@ TEST(GapTool, SetupErrorsNameTheFileAndElement) {
   expectError("<GapTool><alpha>2</alpha><trials/></GapTool>", "expected a value in (0, 1), got 2");
   expectError("<GapTool><assumed_values>nu</assumed_values><trials/></GapTool>", "expected pairs of a parameter name");
   expectError("<GapTool><trials><Trial name='a'><knee_forces>x.csv</knee_forces></Trial></trials></GapTool>",
-              "missing <contact_area>");
+              "missing <contact_area> (the contact-area tool's .sto for this trial) and no <workflow_results>");
+  expectError("<GapTool><trials><Trial name='a'><knee_forces>x.csv</knee_forces><contact_area>a.sto</contact_area>"
+              "<grf_from_knee_forces>-1</grf_from_knee_forces></Trial></trials></GapTool>",
+              "expected newtons per unit of the GRFz column (> 0; JW: 2000), got -1");
   expectError("<IKTool/>", "expected a <GapTool> element, got <IKTool>");
 }
 
-// The whole tool on JW's gait and stair trials with INTERIM areas: every output file, the interim
-// warning in both reports, and a verdict per target.
+// A workflow's results folder: trials without <contact_area> read <dir>/<name>/<name>_contact_area.sto.
+TEST(GapTool, ReadsTheWorkflowsResultsFolder) {
+  const std::string dir = ::kneesim::test::scratchDir("gap_tool_workflow");
+  GapSetup s = readGapSetup(writeSetup(dir, R"(<GapTool name="demo">
+  <workflow_results>wf</workflow_results>
+  <trials>
+    <Trial name="walk"><knee_forces>walk.csv</knee_forces></Trial>
+    <Trial name="stairs" activity="stair"><knee_forces>s.csv</knee_forces><contact_area>own.sto</contact_area></Trial>
+  </trials>
+</GapTool>)"));
+  EXPECT_EQ(s.workflow_results, dir + "/wf");
+  EXPECT_EQ(s.trials[0].contact_area, dir + "/wf/walk/walk_contact_area.sto");
+  EXPECT_EQ(s.trials[1].contact_area, dir + "/own.sto");
+  setWorkflowResults(s, "/run");
+  EXPECT_EQ(s.trials[1].contact_area, "/run/stairs/stairs_contact_area.sto");
+}
+
+// The whole tool on JW's gait and stair trials with the workflow's real areas (fixtures): every
+// output file, no interim or synthetic warning, a verdict per target.
 TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const std::string dir = ::kneesim::test::scratchDir("gap_tool_run");
   GapSetup s;
   s.setup_file = "(test)";
   s.results_directory = dir + "/out";
-  s.trials = {test::interimSource("ngait_og3", "gait", true, dir), test::interimSource("stairupf1", "stair", true, dir)};
+  s.trials = {test::jwSource("ngait_og3", "gait"), test::jwSource("stairupf1", "stair")};
   s.options.fit.free_parameters = {"E", "nu"};
   s.options.fit.assumed_values = {{"nu", 0.45}};
   s.options.fit.confidence.bootstrap_samples = 20;
@@ -104,14 +128,13 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
       EXPECT_GT(std::filesystem::file_size(dir + "/out/" + f), 1000u) << f;
   }
   const auto j = nlohmann::json::parse(readFileText(dir + "/out/gap_report.json"));
-  EXPECT_TRUE(j["interim_inputs"].get<bool>());
-  EXPECT_THAT(j["warning"].get<std::string>(), HasSubstr("INTERIM"));
+  EXPECT_FALSE(j["interim_inputs"].get<bool>());
   ASSERT_EQ(j["targets"].size(), 2u);
   EXPECT_FALSE(j["targets"][0]["verdict"].get<std::string>().empty());
   EXPECT_EQ(j["anchors"]["jw_body_mass_kg"].get<double>(), 66.7);
   EXPECT_EQ(j["targets"][0]["baseline"]["parameters"][1]["status"].get<std::string>(), "fixed: not identifiable");
   const std::string md = readFileText(dir + "/out/gap_report.md");
-  EXPECT_THAT(md, HasSubstr("INTERIM INPUTS - NOT A REAL-DATA RESULT"));
+  EXPECT_THAT(md, ::testing::Not(HasSubstr("INTERIM")));
   EXPECT_THAT(md, HasSubstr("winners' RMS errors 229-326 N per compartment"));
   EXPECT_EQ(r.report.targets.size(), 2u);
 }

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "gap/interim_inputs.hpp"
+#include "gap/jw_sources.hpp"
 #include "gap/synth.hpp"
 #include "io/knee_forces.hpp"
 #include "io/storage.hpp"
@@ -16,24 +16,25 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// Writes the interim areas of a JW trial and returns the source describing it.
-TrialSource jwSource(const std::string& trial, const std::string& activity, bool with_c3d, const std::string& dir) {
-  TrialSource s;
-  s.name = trial;
-  s.activity = activity;
-  s.knee_forces = test::dataPath("kgc4-jw/knee-forces/jw_" + trial + "_knee_forces.csv");
-  if (with_c3d) s.c3d = test::dataPath("kgc4-jw/markers/jw_" + trial + ".c3d");
-  s.contact_area = dir + "/" + trial + "_interim_area.sto";
-  io::writeStorage(s.contact_area, interim::makeInterimContactAreas(io::readKneeForces(s.knee_forces)));
-  return s;
+using test::jwSource;
+
+// A contact-area file covering @p forces' time span with a constant area (for tests about the other
+// channels of a trial that has no workflow areas here, the chair rise).
+std::string constantAreaFile(const io::KneeForces& forces, const std::string& path) {
+  io::Storage a;
+  a.name = "constant";
+  a.labels = {"time", "S", "S_medial", "S_lateral"};
+  a.data.resize(forces.getNumSamples(), 4);
+  for (int i = 0; i < forces.getNumSamples(); ++i) a.data.row(i) << forces.time[size_t(i)], 2.6e-3, 1.3e-3, 1.3e-3;
+  io::writeStorage(path, a);
+  return path;
 }
 
 TEST(TrialInputs, GaitEventsFromThePlatesUnderTheRightFoot) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  const std::string dir = test::scratchDir("gap_trial_gait");
-  const GapTrial g = assembleTrial(jwSource("ngait_og3", "gait", true, dir));
+  const GapTrial g = assembleTrial(jwSource("ngait_og3", "gait"));
   for (const auto& n : g.notes) std::printf("[ note     ] %s\n", n.c_str());
-  EXPECT_TRUE(g.interim_inputs);
+  EXPECT_FALSE(g.interim_inputs);
   EXPECT_EQ(g.event_source, "force plates");
   // Plates 2 and 3 carry the right foot (plate 1 the left): heel strikes where their vertical
   // force passes 20 N (2.066 s and 3.197 s by a direct read of the C3D), toe-offs 2.796 s and 3.945 s.
@@ -51,9 +52,19 @@ TEST(TrialInputs, GaitEventsFromThePlatesUnderTheRightFoot) {
       EXPECT_NEAR(g.cycle_phase[i], 0.62, 0.01);
     }
   }
-  // GON is in degrees in this file: its largest value is 64.687 deg (read with awk).
+  // The flexion is the workflow's IK knee_flexion (area file), -3.2 to 67.5 deg; its area derivative
+  // is the file's too (not estimated from the rates).
   const auto& th = getChannel(g, "knee_flexion");
-  EXPECT_NEAR(*std::max_element(th.begin(), th.end()) * 180 / M_PI, 64.687, 1e-3);
+  EXPECT_NEAR(*std::max_element(th.begin(), th.end()) * 180 / M_PI, 67.55, 0.05);
+  EXPECT_THAT(g.notes, testing::Contains(HasSubstr("knee_flexion from the contact-area file")));
+  EXPECT_THAT(g.notes, testing::Not(testing::Contains(HasSubstr("dS_dflexion estimated"))));
+  EXPECT_NEAR(getChannel(g, "S_threshold")[0], 0.004, 1e-12);  // the header's threshold_m
+  // From GON instead: in degrees in this file (largest 64.687, read with awk), mapped by the engine's
+  // calibration to the model's flexion: -4.437 + 1.1742 x 64.687 = 71.52 deg.
+  TrialSource gon = jwSource("ngait_og3", "gait");
+  gon.flexion_source = "gon";
+  const auto& thg = getChannel(assembleTrial(gon), "knee_flexion");
+  EXPECT_NEAR(*std::max_element(thg.begin(), thg.end()) * 180 / M_PI, -4.437 + 1.1742 * 64.687, 1e-3);
   const auto& grf = getChannel(g, "GRF:vertical");
   EXPECT_NEAR(*std::max_element(grf.begin(), grf.end()), 695, 15);  // plate 3's peak 695 N (30 Hz low-pass)
   EXPECT_EQ(g.trial.channels.count("EMG:vaslat"), 1u);
@@ -64,30 +75,47 @@ TEST(TrialInputs, GaitEventsFromThePlatesUnderTheRightFoot) {
 
 TEST(TrialInputs, GoniometerInVoltsIsCalibratedAndChairCyclesComeFromFlexion) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/knee-forces/jw_chairrise1_knee_forces.csv");
-  const std::string dir = test::scratchDir("gap_trial_chair");
-  const GapTrial stair = assembleTrial(jwSource("stairupf1", "stair", true, dir));
+  const std::string dir = ::kneesim::test::scratchDir("gap_trial_chair");
+  TrialSource st = jwSource("stairupf1", "stair");
+  st.flexion_source = "gon";
+  const GapTrial stair = assembleTrial(st);
   const auto& ths = getChannel(stair, "knee_flexion");
-  // 5.30-7.02 V -> 2-68 deg with the ngait_og3 calibration.
-  EXPECT_NEAR(*std::min_element(ths.begin(), ths.end()) * 180 / M_PI, 2.5, 2.0);
-  EXPECT_NEAR(*std::max_element(ths.begin(), ths.end()) * 180 / M_PI, 66, 3.0);
-  EXPECT_THAT(stair.notes, testing::Contains(HasSubstr("in volts in this file")));
+  // 5.300-7.027 V -> 2.16-68.09 goniometer deg -> -1.9 to 75.5 deg of the model's flexion (IK: -3.5
+  // to 75.4).
+  EXPECT_NEAR(*std::min_element(ths.begin(), ths.end()) * 180 / M_PI, -1.9, 0.3);
+  EXPECT_NEAR(*std::max_element(ths.begin(), ths.end()) * 180 / M_PI, 75.5, 0.3);
+  EXPECT_THAT(stair.notes, testing::Contains(HasSubstr("V): goniometer deg = 38.1828 V - 200.218")));
   EXPECT_EQ(stair.event_source, "force plates");
   ASSERT_GE(stair.cycles.size(), 2u);
   EXPECT_NEAR(stair.cycles[1].start, 6.23, 0.02);  // right foot on plate 1 at 6.23 s
-  const GapTrial chair = assembleTrial(jwSource("chairrise1", "chair", false, dir));
+  TrialSource ch;
+  ch.name = "chairrise1";
+  ch.activity = "chair";
+  ch.knee_forces = ::kneesim::test::dataPath("kgc4-jw/knee-forces/jw_chairrise1_knee_forces.csv");
+  ch.contact_area = constantAreaFile(io::readKneeForces(ch.knee_forces), dir + "/chair_area.sto");
+  const GapTrial chair = assembleTrial(ch);
   EXPECT_EQ(chair.event_source, "flexion");
+  const auto& thc = getChannel(chair, "knee_flexion");
+  EXPECT_NEAR(*std::min_element(thc.begin(), thc.end()) * 180 / M_PI, 6.2, 0.3);
+  EXPECT_NEAR(*std::max_element(thc.begin(), thc.end()) * 180 / M_PI, 110.6, 0.3);
   for (const auto& c : chair.cycles)
     std::printf("[ cycle    ] chair %.3f (mid %.3f) %.3f%s\n", c.start, c.mid, c.end, c.end_estimated ? " est." : "");
   EXPECT_GE(chair.cycles.size(), 4u);
   EXPECT_EQ(chair.trial.channels.count("GRF:vertical"), 0u);  // no C3D for the chair rise
+  // Its knee-force file's GRF column is force plate 1 / 2000: 44-424 N with the scale given.
+  ch.knee_forces_grf_scale = io::kJwCsvGrfNewtonsPerUnit;
+  const GapTrial chair_grf = assembleTrial(ch);
+  const auto& grf = getChannel(chair_grf, "GRF:vertical");
+  EXPECT_NEAR(*std::min_element(grf.begin(), grf.end()), 43.6, 0.5);
+  EXPECT_NEAR(*std::max_element(grf.begin(), grf.end()), 423.8, 0.5);
   std::vector<GapTrial> all{stair, chair};
   std::printf("[ scatter  ] between-cycle SD of the measured force: %.1f N\n", estimateBetweenCycleScatter(all));
 }
 
 TEST(TrialInputs, BadInputsAreOneLineErrors) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/knee-forces/jw_ngait_og3_knee_forces.csv");
-  const std::string dir = test::scratchDir("gap_trial_bad");
-  TrialSource s = jwSource("ngait_og3", "gait", false, dir);
+  const std::string dir = ::kneesim::test::scratchDir("gap_trial_bad");
+  TrialSource s = jwSource("ngait_og3", "gait", false);
   // Areas in mm^2.
   io::Storage a = io::readStorage(s.contact_area);
   a.data.col(1) *= 1e6;

@@ -8,10 +8,8 @@
 
 #include "core/error.hpp"
 #include "core/strings.hpp"
-#include "gap/interim_inputs.hpp"
 #include "gap/synth.hpp"
 #include "gap/tool.hpp"
-#include "io/knee_forces.hpp"
 #include "io/storage.hpp"
 #include "plugin/registry.hpp"
 
@@ -23,6 +21,8 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
   s.gap = app.add_subcommand("gap", "Sim-to-real gap diagnosis from a <GapTool> setup file");
   s.gap->add_option("setup", s.setup, "GapTool setup XML")->required();
   s.gap->add_option("--areas", s.areas, "Folder holding the contact-area .sto files (replaces their folder in the setup)");
+  s.gap->add_option("--workflow-results", s.workflow_results,
+                    "A KneeContactWorkflow's results folder: each trial reads <dir>/<trial>/<trial>_contact_area.sto");
   s.gap->add_option("-o,--output", s.output, "Results folder (default: the setup's results_directory)");
   s.gap->add_option("--targets", s.targets, "total, medial and/or lateral (default: the setup's)");
   s.gap->add_option("--trials", s.trials, "Comma-separated trial names of the setup to use (default: all)");
@@ -33,10 +33,9 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
   s.synth->add_option("setup", s.setup, "GapTool setup XML naming the trials whose inputs drive the synthetic ones")
       ->required();
   s.synth->add_option("--trials", s.trials, "Comma-separated trial names to use (default: all with a C3D)");
-  s.synth->add_option("--interim-areas", s.interim_areas,
-                      "Write INTERIM contact areas (Hertz inverted on the measured force; not real) into this folder "
-                      "and use them");
   s.synth->add_option("--areas", s.areas, "Folder holding the contact-area .sto files");
+  s.synth->add_option("--workflow-results", s.workflow_results,
+                      "A KneeContactWorkflow's results folder: each trial reads <dir>/<trial>/<trial>_contact_area.sto");
   s.synth->add_option("--effect", s.effects, "Injected effect, name:param=value (repeatable)");
   s.synth->add_option("--outside", s.outside, "Injected force outside the catalogue, phase_bump:SIZE_N");
   s.synth->add_option("--noise", s.noise, "SD of the smooth between-cycle noise, N (default 100)");
@@ -98,16 +97,8 @@ void runSynth(const GapCommandState& st, bool quiet) {
       if (!t.c3d.empty()) keep.push_back(t);
     if (!keep.empty()) setup.trials = keep;
   }
+  if (!st.workflow_results.empty()) gap::setWorkflowResults(setup, st.workflow_results);
   if (!st.areas.empty()) gap::setContactAreaDirectory(setup, st.areas);
-  if (!st.interim_areas.empty()) {
-    fs::create_directories(st.interim_areas);
-    for (auto& t : setup.trials) {
-      const std::string out = (fs::path(st.interim_areas) / fs::path(t.contact_area).filename()).string();
-      io::writeStorage(out, gap::interim::makeInterimContactAreas(io::readKneeForces(t.knee_forces)));
-      t.contact_area = out;
-      if (!quiet) std::cout << "INTERIM contact areas (not real; from the measured force): " << out << "\n";
-    }
-  }
   plugin::Registry reg;
   for (const auto& p : setup.plugins) reg.loadPlugin(p, {st.setup, 0, "GapTool/plugins"});
   const identify::ContactLaw law = identify::ContactLaw::fromRegistry(reg, setup.law, {st.setup, 0, "GapTool/law"});
@@ -171,6 +162,7 @@ void runGapCommand(const GapCommandState& st, bool quiet) {
   if (st.synth && *st.synth) return runSynth(st, quiet);
   gap::GapSetup setup = gap::readGapSetup(st.setup);
   if (!st.trials.empty()) selectTrials(setup, st.trials);
+  if (!st.workflow_results.empty()) gap::setWorkflowResults(setup, st.workflow_results);
   if (!st.areas.empty()) gap::setContactAreaDirectory(setup, st.areas);
   if (!st.output.empty()) setup.results_directory = st.output;
   if (!st.targets.empty()) setup.options.targets = st.targets;

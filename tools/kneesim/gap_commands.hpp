@@ -15,7 +15,7 @@ struct GapCommandState {
   std::string setup, areas, output, trials, outside;
   std::vector<std::string> effects, targets;
   bool no_plots = false, blind_suite = false;
-  std::string interim_areas;
+  std::string workflow_results;
   double noise = 100;
   int replicates = 3, seeds = 20, folds = 5;
   unsigned long long seed = 1;
