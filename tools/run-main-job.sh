@@ -2,7 +2,8 @@
 # Builds kneesim and runs the main job:
 #  1. Dao & Pouletaut 2015 end to end on subject JW (models/jw-knee24/paper_workflow.xml): IK from the
 #     C3D files, implant contact area, eKnee forces, Hertz law identified on ngait_og3 and predicted on
-#     stairupf1 and chairrise1; summary.json, .sto files and PNG plots (the paper's Figures 6-9).
+#     stairupf1 and chairrise1; summary.json, .sto files and PNG plots (the paper's Figures 6-9);
+#     then the sim-to-real gap diagnosis on the areas it computed (results/paper_workflow/gap/).
 #  2. OpenSim's own inverse-kinematics regression case (gait2354) against OpenSim's stored answer.
 # Both run on copies in build/main-job/. The data are looked for in $KNEESIM_DATA_DIR, else
 # ../shared/data next to the repository; a part whose data are missing is skipped with a message.
@@ -22,6 +23,9 @@ if [ -f "$data/kgc4-jw/markers/jw_ngait_og3.c3d" ] && [ -f "$data/kgc4-jw/knee-f
   mkdir -p "$job/paper/models" "$job/shared"
   ln -s "$data" "$job/shared/data"
   cp -r models/jw-knee24 "$job/paper/models/"
+  # The workflow's gap step reads share/gap/jw_gap*.xml (../../share/gap from models/jw-knee24).
+  mkdir -p "$job/paper/share"
+  cp -r share/gap "$job/paper/share/"
   rm -rf "$job/paper/models/jw-knee24/results"
   echo "== kneesim run $job/paper/models/jw-knee24/paper_workflow.xml"
   start=$(date +%s)
@@ -30,7 +34,8 @@ if [ -f "$data/kgc4-jw/markers/jw_ngait_og3.c3d" ] && [ -f "$data/kgc4-jw/knee-f
   results="$job/paper/models/jw-knee24/results/paper_workflow"
   echo "== the paper's workflow took $((end - start)) s; results in $results/"
   echo "   summary.json (identified K and E at the assumed nu, errors per trial and phase, contact areas),"
-  echo "   plots/*.png (Figures 6-9), <trial>/ (IK motion, contact area, measured and predicted force)"
+  echo "   plots/*.png (Figures 6-9), <trial>/ (IK motion, contact area, measured and predicted force),"
+  echo "   gap/jw_gap/ and gap/jw_gap_c3d/ (gap_report.md, gap_report.json and plots of the gap diagnosis)"
   ran=1
 else
   echo "== skipped the paper's workflow: JW's data (kgc4-jw/) are not in $data"
