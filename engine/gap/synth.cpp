@@ -13,6 +13,8 @@
 #include <thread>
 #include <sstream>
 
+
+#include "core/error.hpp"
 #include "core/strings.hpp"
 #include "gap/signals.hpp"
 
@@ -33,12 +35,102 @@ std::vector<double> smoothNoise(int n, double rate, double tau, std::mt19937_64&
   return s;
 }
 
+// OracleBound of a single-effect case: each rival fitted to the noise-free trials @p clean.
+OracleBound calcOracleBound(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                            const std::vector<GapTrial>& clean, const std::string& injected,
+                            const BlindSuiteOptions& bo) {
+  std::vector<identify::Trial> trials;
+  for (const auto& g : clean) trials.push_back(g.trial);
+  const NoiseMetric metric(bo.synth, bo.oracle_bandwidth);
+  OracleBound ob;
+  ob.distance = std::numeric_limits<double>::infinity();
+  std::vector<std::string> rivals{"baseline"};
+  for (const auto& e : catalogue)
+    if (e.getName() != injected) rivals.push_back(e.getName());
+  for (const auto& rival : rivals) {
+    std::vector<Effect> effs;
+    for (const auto& e : catalogue)
+      if (e.getName() == rival) effs.push_back(e);
+    identify::FitOptions fo = bo.diagnosis.fit;
+    fo.confidence.profile = fo.confidence.asymptotic = false;
+    fo.confidence.bootstrap_samples = 0;
+    fo.phases.clear();
+    for (const auto& [name, v] : bo.synth.base_values) fo.parameter_values[name] = v;
+    double d2 = 0, ss = 0;
+    long n_all = 0;
+    try {
+      const identify::ContactLaw law = makeExtendedLaw(base, effs);
+      for (int j = base.getNumParameters(); j < law.getNumParameters(); ++j)
+        if (!law.getParameter(j).fixed_by_default) fo.free_parameters.push_back(law.getParameter(j).name);
+      const identify::FitReport fr = identify::fit(law, trials, fo);
+      if (!fr.solver.success) continue;
+      const Eigen::VectorXd p = fr.getValues();
+      for (size_t t = 0; t < trials.size(); ++t) {
+        const identify::LawInputs in(law, trials[t].channels, trials[t].time, trials[t].name);
+        Eigen::VectorXd f;
+        law.calcForce(p, in, f);
+        std::vector<double> dv(f.size());
+        for (int i = 0; i < f.size(); ++i) {
+          const double m = trials[t].measured_force[i];
+          dv[i] = std::isfinite(m) && std::isfinite(f[i]) ? m - f[i] : 0.0;
+          ss += dv[i] * dv[i];
+          n_all += std::isfinite(m) && std::isfinite(f[i]);
+        }
+        const auto& time = trials[t].time;
+        d2 += metric.calcSquaredDistance(dv, time.size() > 1 ? (time.size() - 1) / (time.back() - time.front()) : 120.0);
+      }
+    } catch (const std::exception&) {
+      continue;  // a rival that cannot be fitted to these trials is no rival
+    }
+    const double rms = n_all ? std::sqrt(ss / n_all) : 0.0, dist = std::sqrt(std::max(d2, 0.0));
+    ob.all[rival] = {rms, dist};
+    if (dist < ob.distance) ob.distance = dist, ob.rival = rival, ob.rival_rms = rms;
+  }
+  ob.accuracy = std::isfinite(ob.distance) ? normalCdf(ob.distance / 2) : 1.0;
+  return ob;
+}
+
 bool isAreaChannel(const std::string& name) {
   return name == "S" || name == "S_medial" || name == "S_lateral" || startsWith(name, "S@") ||
          startsWith(name, "S_medial@") || startsWith(name, "S_lateral@");
 }
 
 }  // namespace
+
+NoiseMetric::NoiseMetric(const SynthOptions& o, double bandwidth) : options_(o), bandwidth_(bandwidth) {}
+
+const Eigen::LLT<Eigen::MatrixXd>& NoiseMetric::findFactor(int n, double rate) const {
+  const auto key = std::make_pair(n, std::lround(rate * 1000));
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = cache_.find(key);
+  if (it != cache_.end()) return *it->second;
+  // Smooth part: the low-pass filter L (linear: its columns are its responses to unit impulses)
+  // applied to white noise, scaled to SD noise_sd by its expected SD; plus the white part.
+  const double fc = std::min(1.0 / (2 * M_PI * options_.noise_time), 0.45 * rate);
+  Eigen::MatrixXd l(n, n);
+  std::vector<double> e(n, 0.0);
+  for (int j = 0; j < n; ++j) {
+    e[j] = 1;
+    const std::vector<double> col = n >= 3 ? lowPass(e, rate, fc) : e;
+    e[j] = 0;
+    for (int i = 0; i < n; ++i) l(i, j) = col[i];
+  }
+  Eigen::MatrixXd cov = l * l.transpose();
+  cov *= options_.noise_sd * options_.noise_sd * n / std::max(cov.trace(), 1e-300);
+  // A floor keeps the factor positive definite when the white part is 0.
+  cov.diagonal().array() += std::max(options_.white_sd * options_.white_sd, 1e-9 * (1 + options_.noise_sd * options_.noise_sd));
+  auto f = std::make_unique<Eigen::LLT<Eigen::MatrixXd>>(cov);
+  KNEESIM_CHECK(f->info() == Eigen::Success, "synthetic noise covariance is not positive definite");
+  return *cache_.emplace(key, std::move(f)).first->second;
+}
+
+double NoiseMetric::calcSquaredDistance(const std::vector<double>& d, double rate) const {
+  if (d.empty()) return 0;
+  std::vector<double> x = d;
+  if (bandwidth_ > 0 && bandwidth_ < 0.45 * rate && x.size() >= 3) x = lowPass(x, rate, bandwidth_);
+  const Eigen::Map<const Eigen::VectorXd> v(x.data(), static_cast<Eigen::Index>(x.size()));
+  return v.dot(findFactor(static_cast<int>(x.size()), rate).solve(v));
+}
 
 std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
                                           const std::vector<GapTrial>& sources, const SynthOptions& o) {
@@ -252,9 +344,9 @@ std::string BlindSuiteResult::formatMarkdown() const {
   s << "| injected \\ named first |";
   for (const auto& c : columns) s << " " << shortName(c) << " |";
   s << " correct | correct or reported confusable | RMS change (N) | left after refit (N) | size in CI (jackknife / "
-       "asymptotic) |\n|---|";
+       "asymptotic) | closest rival: unmimicked RMS (N), D | best possible |\n|---|";
   for (size_t k = 0; k < columns.size(); ++k) s << "---:|";
-  s << "---:|---:|---:|---:|---|\n";
+  s << "---:|---:|---:|---:|---|---|---:|\n";
   for (size_t r = 0; r < rows.size(); ++r) {
     const auto e = expected.find(rows[r]);
     const bool hidden = e != expected.end() && e->second == "baseline" && rows[r] != "nothing";
@@ -283,7 +375,18 @@ std::string BlindSuiteResult::formatMarkdown() const {
     s << " " << ok << "/" << outs.size() << " | " << okc << "/" << outs.size() << " | " << med.str() << " | " << vis.str() << " | ";
     if (est) s << cj << "/" << est << " / " << ca << "/" << est;
     else s << "-";
-    s << " |\n";
+    const auto ob = oracle.find(rows[r]);
+    if (ob == oracle.end() || hidden) {
+      s << " | - | - |\n";
+    } else {
+      std::ostringstream o;
+      o.setf(std::ios::fixed);
+      o.precision(1);
+      o << ob->second.rival << ": " << ob->second.rival_rms << ", " << ob->second.distance << " | ";
+      o.precision(0);
+      o << 100 * ob->second.accuracy << " %";
+      s << " | " << o.str() << " |\n";
+    }
   }
   return s.str();
 }
@@ -335,6 +438,9 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
       visible = identify::fit(base, trials, fo).overall.rmse;
     }
     res.visible_rms[bc.name] = visible;
+    if (bo.oracle && bc.effects.size() == 1 && bc.outside.empty())
+      res.oracle[bc.name] =
+          calcOracleBound(base, catalogue, makeSyntheticTrials(base, catalogue, sources, clean), bc.effects[0].effect, bo);
     expected.push_back(!bc.effects.empty() && visible < bo.visible_floor ? std::string("baseline") : bc.expected);
     res.expected[bc.name] = expected.back();
   }

@@ -15,6 +15,12 @@
 #include <vector>
 
 #include <functional>
+#include <memory>
+#include <mutex>
+#include <utility>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
 
 #include "gap/diagnosis.hpp"
 #include "gap/effect.hpp"
@@ -52,6 +58,25 @@ struct SynthOptions {
   double flexion_variation = 0.03;
   double load_variation = 0.05;   ///< Relative SD of the smooth factor on GRF and EMG between replicates.
   unsigned long long seed = 1;
+};
+
+/// The metric of the synthetic noise (makeSyntheticTrials): squared Mahalanobis distances of force
+/// differences under the noise's exact covariance -- the smooth part (white noise through the
+/// generator's low-pass filter, scaled to noise_sd) plus the white part -- each recording's noise
+/// independent. Optionally the difference is low-passed at @p bandwidth Hz first (0: not).
+/// Covariance factors are cached per recording length and rate; thread-safe.
+class NoiseMetric {
+ public:
+  NoiseMetric(const SynthOptions& options, double bandwidth = 0);
+  /// d^T Sigma^-1 d for one recording's force difference @p d (N) sampled at @p rate (Hz).
+  double calcSquaredDistance(const std::vector<double>& d, double rate) const;
+
+ private:
+  const Eigen::LLT<Eigen::MatrixXd>& findFactor(int n, double rate) const;
+  SynthOptions options_;
+  double bandwidth_ = 0;
+  mutable std::mutex mutex_;
+  mutable std::map<std::pair<int, long>, std::unique_ptr<Eigen::LLT<Eigen::MatrixXd>>> cache_;
 };
 
 /// Synthetic recordings from @p sources (each replicated options.replicates times, named
@@ -109,6 +134,24 @@ struct BlindOutcome {
   bool has_estimate = false;
 };
 
+/// The best any method could do on a single-effect case against its closest rival: the rival
+/// effect (or "baseline") fitted to the case's noise-free synthetic forces (seed 1) mimics them
+/// as well as it can; D is the Mahalanobis distance between the two noise-free force histories
+/// under the synthetic noise's exact covariance (smooth noise and white part, each recording
+/// independent), over all frames. Between the two worlds -- the injected effect at its size, the
+/// rival at its best-mimicking size -- no method, even one told both hypotheses and the noise
+/// model, names the truth first more often on average than Phi(D/2) (the Bayes rate of two
+/// Gaussian hypotheses with equal priors); so a method naming the injected effect in a fraction p
+/// of its draws names it in at least 2 p - 2 Phi(D/2) + 1 of the rival world's draws too.
+struct OracleBound {
+  std::string rival;           ///< Closest rival: an effect name or "baseline".
+  double rival_rms = 0;        ///< N: RMS of the noise-free force the rival cannot mimic.
+  double distance = 0;         ///< D, dimensionless.
+  double accuracy = 1;         ///< Phi(D/2).
+  /// Every rival tried: name -> (RMS N, D); rivals whose fit failed are absent.
+  std::map<std::string, std::pair<double, double>> all;
+};
+
 /// Outcomes of the blind suite and their confusion matrix.
 struct BlindSuiteResult {
   std::vector<BlindOutcome> outcomes;
@@ -119,6 +162,8 @@ struct BlindSuiteResult {
   /// noise-free synthetic trials of seed 1 (the part of it the data can show), and the expected answer.
   std::map<std::string, double> visible_rms;
   std::map<std::string, std::string> expected;
+  /// Per single-effect case (BlindSuiteOptions::oracle): the best any method could do (OracleBound).
+  std::map<std::string, OracleBound> oracle;
   double seconds = 0;
   /// Outcomes of one case.
   std::vector<const BlindOutcome*> getOutcomes(const std::string& case_name) const;
@@ -139,6 +184,14 @@ struct BlindSuiteOptions {
   /// the noise-free trials cannot be seen through the noise on these inputs; its right answer is
   /// "baseline" (the diagnosis must not claim an effect it cannot see). Default: 0.3 x 100 N.
   double visible_floor = 30;
+  /// Compute OracleBound for each single-effect case (one fit per rival and case).
+  bool oracle = true;
+  /// Hz: the difference between the two noise-free force histories is low-passed here before D is
+  /// computed (0: not). The synthetic force follows the contact areas exactly, even their
+  /// frame-to-frame jitter from the kinematics, where the noise is only its 5 N white part; a real
+  /// force does not carry the jitter of a model's inputs, so differences faster than the
+  /// kinematics' usual bandwidth (6 Hz) are no evidence a real method could use.
+  double oracle_bandwidth = 6;
   std::function<void(int done, int total)> progress;
 };
 

@@ -82,9 +82,13 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // Three effects act on the force only through the contact area, which on these inputs is a
   // smooth function of the flexion over a narrow range (2000-2740 mm^2): exponent, threshold and
   // adhesion_jkr make force changes the baseline leaves nearly collinear (canonical correlation
-  // 0.9-0.999), so which of them is named first is decided by the noise. For them the diagnosis
-  // must name the effect or report it confusable with its answer, and the floors are what the
-  // data allow (observed today, 20 seeds, in the comments).
+  // 0.9-0.999). For them the diagnosis must name the effect or report it confusable with its
+  // answer, and the floors are what it achieves today (20 seeds, in the comments). The matrix's
+  // "best possible" column (OracleBound, force differences up to 6 Hz) says how much of that is the
+  // data's and how much the method's: exponent against adhesion_jkr 78 % -- no method can name
+  // both first in 18 of 20 -- adhesion_jkr against creep 93 %, threshold 100 %: the diagnosis's
+  // unweighted least squares leave threshold's separation (fast differences where the smooth
+  // noise is weak) unused.
   struct Demand {
     int named_first = 18, named_or_confusable = 18;
   };
@@ -93,6 +97,23 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
       {"threshold", {6, 13}},      // observed  9 / 20, 15 / 20
       {"adhesion_jkr", {7, 14}},   // observed 10 / 20, 16 / 20
   };
+  // Every visible single-effect case has its best-possible rate against its closest rival.
+  for (const auto& bc : getDefaultBlindCases()) {
+    if (bc.effects.size() != 1 || res.expected.at(bc.name) == "baseline") continue;
+    SCOPED_TRACE(bc.name);
+    ASSERT_TRUE(res.oracle.count(bc.name));
+    const OracleBound& ob = res.oracle.at(bc.name);
+    EXPECT_NE(ob.rival, bc.name);
+    EXPECT_GT(ob.distance, 0);
+  }
+  // The data's limit (today: exponent 78 % against adhesion_jkr, D = 1.6; threshold 100 %, D = 7.2).
+  if (res.oracle.count("exponent")) {
+    EXPECT_EQ(res.oracle.at("exponent").rival, "adhesion_jkr");
+    EXPECT_LT(res.oracle.at("exponent").accuracy, 0.9);
+  }
+  if (res.oracle.count("threshold")) {
+    EXPECT_GT(res.oracle.at("threshold").accuracy, 0.99);
+  }
   for (const auto& row : res.rows) {
     const auto outs = res.getOutcomes(row);
     int ok = 0, okc = 0, est = 0, cov = 0, cov_jack = 0;

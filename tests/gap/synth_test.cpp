@@ -1,0 +1,61 @@
+// NoiseMetric: the synthetic noise's Mahalanobis metric behind the blind suite's best-possible
+// rates (OracleBound), checked against closed forms.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "gap/synth.hpp"
+
+namespace kneesim::gap {
+namespace {
+
+SynthOptions noise(double smooth_sd, double white_sd) {
+  SynthOptions o;
+  o.noise_sd = smooth_sd;
+  o.white_sd = white_sd;
+  o.noise_time = 0.05;  // the generator's default: cut-off 1 / (2 pi 0.05 s) = 3.18 Hz
+  return o;
+}
+
+TEST(NoiseMetric, WhiteNoiseOnlyIsTheScaledSquaredNorm) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0, 30);
+  std::vector<double> d(200);
+  double ss = 0;
+  for (double& x : d) x = g(rng), ss += x * x;
+  const NoiseMetric m(noise(0, 5));
+  EXPECT_NEAR(m.calcSquaredDistance(d, 100), ss / 25, 1e-6 * ss / 25);
+}
+
+TEST(NoiseMetric, FastDifferencesSeeOnlyTheWhitePart) {
+  // At the Nyquist frequency the smooth noise (cut-off 3.18 Hz, 8th-order roll-off) has no power:
+  // a +-1 N alternation over n frames has D^2 = n / white_sd^2.
+  std::vector<double> d(300);
+  for (size_t i = 0; i < d.size(); ++i) d[i] = i % 2 ? 1.0 : -1.0;
+  const NoiseMetric m(noise(100, 5));
+  EXPECT_NEAR(m.calcSquaredDistance(d, 100), 300.0 / 25, 0.02 * 300.0 / 25);
+  // Low-passed at 6 Hz first, it is gone.
+  const NoiseMetric band(noise(100, 5), 6);
+  EXPECT_LT(band.calcSquaredDistance(d, 100), 1e-3 * 300.0 / 25);
+}
+
+TEST(NoiseMetric, SlowDifferencesAreHiddenByTheSmoothNoise) {
+  // A constant difference c over T seconds against noise of SD sigma whose one-sided density at 0 Hz
+  // is sigma^2 / B (B: the equivalent noise bandwidth of the forward-backward 2nd-order Butterworth,
+  // |H|^2 = 1 / (1 + (f / fc)^8), B = fc (pi / 8) / sin(pi / 8) = 3.266 Hz): D^2 = 2 c^2 T B / sigma^2
+  // = 19.6 for c = sigma = 100 N, T = 3 s. Ends and the finite record make it approximate.
+  const double fc = 1 / (2 * M_PI * 0.05), b = fc * (M_PI / 8) / std::sin(M_PI / 8);
+  const double expected = 2 * 3.0 * b;
+  std::vector<double> d(300, 100.0);
+  const NoiseMetric m(noise(100, 5));
+  const double d2 = m.calcSquaredDistance(d, 100);
+  std::printf("[ info     ] D^2 = %.2f, closed form %.2f\n", d2, expected);
+  EXPECT_NEAR(d2, expected, 0.25 * expected);
+  // Under white noise of the same SD it would be n = 300.
+  EXPECT_GT(NoiseMetric(noise(0, 100)).calcSquaredDistance(d, 100), 10 * d2);
+}
+
+}  // namespace
+}  // namespace kneesim::gap
