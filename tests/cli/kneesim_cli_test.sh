@@ -104,6 +104,10 @@ expect_error "ik missing marker file" 1 "kneesim ik: --markers: marker file not 
   || fail "compare-motion of a file with itself exited with $?"
 grep -q "PASS" "$tmp/out" || fail "compare-motion: $(tail -1 "$tmp/out")"
 expect_error "compare-motion missing file" 1 "$tmp/none.mot" "$exe" compare-motion "$d/out/flags.mot" "$tmp/none.mot"
+expect_error "synth unknown blind case" 1 "--cases: expected blind case names" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases exponent,no_such_case
+expect_error "synth malformed custom case" 1 "--cases: expected name:param=value" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases "exponent:dm"
 
 # OpenSim's regression case, when the data are here: kneesim run, then compare with OpenSim's answer.
 if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then

@@ -45,6 +45,7 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
   s.synth->add_flag("--blind-suite", s.blind_suite, "Run the blind suite and print its confusion matrix");
   s.synth->add_option("--seeds", s.seeds, "Seeds per case of the blind suite (default 20)");
   s.synth->add_option("--folds", s.folds, "Cross-validation folds of the blind suite (default 5)");
+  s.synth->add_option("--cases", s.cases, "Comma-separated blind cases to run: default case names and/or custom ones, effect:param=value (default: all default cases)");
 }
 
 bool isGapCommand(const GapCommandState& s) { return (s.gap && *s.gap) || (s.synth && *s.synth); }
@@ -58,15 +59,15 @@ void progressBar(int done, int total) {
   if (done == total) std::fprintf(stderr, "\n");
 }
 
-gap::InjectedEffect parseEffect(const std::string& text) {
+gap::InjectedEffect parseEffect(const std::string& text, const std::string& option = "--effect") {
   // name:param=value
   const auto colon = text.find(':'), eq = text.find('=');
   if (colon == std::string::npos || eq == std::string::npos || eq < colon)
-    throw InputError({"(command line)", 0, "--effect"}, "expected name:param=value, got '" + text + "'");
+    throw InputError({"(command line)", 0, option}, "expected name:param=value, got '" + text + "'");
   gap::InjectedEffect e;
   e.effect = text.substr(0, colon);
   e.values[text.substr(colon + 1, eq - colon - 1)] =
-      parseDouble(text.substr(eq + 1), {"(command line)", 0, "--effect"});
+      parseDouble(text.substr(eq + 1), {"(command line)", 0, option});
   return e;
 }
 
@@ -87,7 +88,36 @@ void selectTrials(gap::GapSetup& setup, const std::string& list) {
   setup.trials = keep;
 }
 
+// The default blind cases named in @p list (comma-separated); throws for an unknown name.
+std::vector<gap::BlindCase> selectCases(const std::string& list) {
+  const std::vector<gap::BlindCase> all = gap::getDefaultBlindCases();
+  std::vector<gap::BlindCase> keep;
+  for (const auto& name : splitOn(list, ',')) {
+    if (name.find(':') != std::string::npos) {
+      // A custom single-effect case, effect:param=value, whose right answer is that effect.
+      gap::BlindCase c;
+      c.name = std::string(name);
+      c.effects = {parseEffect(c.name, "--cases")};
+      c.expected = c.effects.front().effect;
+      keep.push_back(c);
+      continue;
+    }
+    bool found = false;
+    for (const auto& c : all)
+      if (c.name == name) keep.push_back(c), found = true;
+    if (!found) {
+      std::string have;
+      for (const auto& c : all) have += (have.empty() ? "" : ", ") + c.name;
+      throw InputError({"(command line)", 0, "--cases"},
+                       "expected blind case names (" + have + "), got '" + std::string(name) + "'");
+    }
+  }
+  return keep;
+}
+
 void runSynth(const GapCommandState& st, bool quiet) {
+  // Command-line cases first: a typo must not wait for the trials to load.
+  const std::vector<gap::BlindCase> cases = st.cases.empty() ? std::vector<gap::BlindCase>{} : selectCases(st.cases);
   gap::GapSetup setup = gap::readGapSetup(st.setup);
   if (!st.trials.empty()) {
     selectTrials(setup, st.trials);
@@ -131,6 +161,7 @@ void runSynth(const GapCommandState& st, bool quiet) {
     bo.synth.noise_sd = st.noise;
     bo.synth.replicates = st.replicates;
     bo.diagnosis.cv_folds = st.folds;
+    bo.cases = cases;
     if (!quiet) bo.progress = progressBar;
     const gap::BlindSuiteResult res = gap::runBlindSuite(law, catalogue, sources, bo);
     std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds

@@ -18,6 +18,7 @@ struct GapCommandState {
   std::string workflow_results;
   double noise = 100;
   int replicates = 3, seeds = 20, folds = 5;
+  std::string cases;  ///< Blind suite: comma-separated case names (default: all).
   unsigned long long seed = 1;
 };
 
