@@ -1028,7 +1028,16 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       const bool by_cycle = !cyc.empty();
       const std::vector<const WorkflowTrialResult*>& main = by_cycle ? cyc : other;
       const std::string xl = by_cycle ? "gait cycle (%, heel strike to heel strike, from the force plates)" : "time (s)";
-      const auto limitToCycle = [&](Plot& p) {
+      // Figures 6-8: the main trials against the shared x axis, limited to the cycle with its toe-offs.
+      const auto startMainPlot = [&](const std::string& name, const std::string& title, const std::string& ylabel) {
+        Plot p;
+        p.file = pdir + "/" + name + ".png";
+        p.title = title;
+        p.xlabel = xl;
+        p.ylabel = ylabel;
+        return p;
+      };
+      const auto addMainPlot = [&](Plot& p) {
         if (by_cycle) {
           p.xmin = 0;
           p.xmax = 100;
@@ -1036,13 +1045,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
             if (std::isfinite(r->cycle.toe_off))
               p.vlines.push_back({r->cycle.getToeOffPercent(), main.size() == 1 ? "toe-off" : "toe-off " + r->name});
         }
+        plots.push_back(std::move(p));
       };
       {
-        Plot p;
-        p.file = pdir + "/fig6_knee_flexion.png";
-        p.title = "Knee flexion (after Dao & Pouletaut 2015, Fig. 6)";
-        p.xlabel = xl;
-        p.ylabel = setup.flexion_coordinate + (flex_rot ? " (deg)" : "");
+        Plot p = startMainPlot("fig6_knee_flexion", "Knee flexion (after Dao & Pouletaut 2015, Fig. 6)",
+                               setup.flexion_coordinate + (flex_rot ? " (deg)" : ""));
         int c = 0;
         for (const auto* r : main) {
           std::vector<double> y;
@@ -1064,15 +1071,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
                                 kColors[c % 7], 2, 1.5});
           ++c;
         }
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       {
-        Plot p;
-        p.file = pdir + "/fig7_contact_area.png";
-        p.title = "Implant contact area (after Dao & Pouletaut 2015, Fig. 7)";
-        p.xlabel = xl;
-        p.ylabel = "contact area (mm²)";
+        Plot p = startMainPlot("fig7_contact_area", "Implant contact area (after Dao & Pouletaut 2015, Fig. 7)",
+                               "contact area (mm²)");
         int c = 0;
         for (const auto* r : main) {
           const auto x = plotAxis(*r, by_cycle);
@@ -1089,15 +1092,12 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
         }
         p.hlines.push_back({kPaperPeakLow * 1e6, "paper's peaks 1016-1117 mm² (4 mm)"});
         p.hlines.push_back({kPaperPeakHigh * 1e6, ""});
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       {
-        Plot p;
-        p.file = pdir + "/fig8_compartment_forces.png";
-        p.title = "Measured compartment forces, eKnee and equation 4 (after Dao & Pouletaut 2015, Fig. 8)";
-        p.xlabel = xl;
-        p.ylabel = "force (N)";
+        Plot p = startMainPlot("fig8_compartment_forces",
+                               "Measured compartment forces, eKnee and equation 4 (after Dao & Pouletaut 2015, Fig. 8)",
+                               "force (N)");
         int c = 0;
         for (const auto* r : main) {
           const auto x = plotAxis(*r, by_cycle);
@@ -1105,8 +1105,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
           p.series.push_back({r->name + " lateral", x, r->forces.lateral, "lines", kColors[c % 7], 2});
           ++c;
         }
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       for (const TrialState& st : states) {
         const WorkflowTrialResult& r = st.result;
