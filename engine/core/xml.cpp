@@ -148,6 +148,22 @@ void checkChildren(const Node& node, const std::set<std::string>& known) {
     }
 }
 
+std::string escape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 std::string resolvePath(const std::string& base_dir, const std::string& p) {
   if (p.empty()) return p;
   const std::filesystem::path path(p);

@@ -62,6 +62,15 @@ TEST(Xml, CheckChildrenNamesTheUnknownElementAndTheKnownOnes) {
   }
 }
 
+TEST(Xml, EscapeWritesTheFiveEntitiesAndParsesBack) {
+  const std::string raw = "a&b <c> \"d\" 'e' f";
+  EXPECT_EQ(escape(raw), "a&amp;b &lt;c&gt; &quot;d&quot; &apos;e&apos; f");
+  EXPECT_EQ(escape(""), "");
+  auto doc = Document::parse("<t v=\"" + escape(raw) + "\">" + escape(raw) + "</t>", "e.xml");
+  EXPECT_EQ(*doc->root().attr("v"), raw);
+  EXPECT_EQ(doc->root().text(), raw);
+}
+
 TEST(Xml, ResolvePathAgainstTheSetupFolder) {
   EXPECT_EQ(resolvePath("/data/setups", ""), "");
   EXPECT_EQ(resolvePath("/data/setups", "/abs/m.osim"), "/abs/m.osim");
