@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <unordered_map>
 
+#include "contact/closest_point.hpp"
 #include "core/error.hpp"
 
 namespace kneesim::contact {
@@ -13,49 +14,7 @@ namespace {
 
 using Eigen::Vector3d;
 
-enum Feature { kVertexA, kVertexB, kVertexC, kEdgeAB, kEdgeBC, kEdgeCA, kFace };
-
-// Closest point of triangle abc to p, with the Voronoi region it lies in (Ericson, Real-Time
-// Collision Detection, 5.1.5). The region picks the pseudonormal that signs the distance.
-Vector3d closestOnTriangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c,
-                           Feature& feature) {
-  const Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) {
-    feature = kVertexA;
-    return a;
-  }
-  const Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) {
-    feature = kVertexB;
-    return b;
-  }
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    feature = kEdgeAB;
-    return a + (d1 / (d1 - d3)) * ab;
-  }
-  const Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) {
-    feature = kVertexC;
-    return c;
-  }
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    feature = kEdgeCA;
-    return a + (d2 / (d2 - d6)) * ac;
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    feature = kEdgeBC;
-    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  feature = kFace;
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
+using Feature = TriangleFeature;
 
 double boxDistanceSquared(const Eigen::AlignedBox3d& box, const Vector3d& p) {
   double s = 0;
@@ -187,7 +146,7 @@ int MeshDistance::build(int begin, int end, std::vector<Vector3d>& centroids) {
 bool MeshDistance::calcSignedDistance(const Vector3d& p, double max_distance, MeshDistanceQuery& out) const {
   double best2 = std::isfinite(max_distance) ? max_distance * max_distance : std::numeric_limits<double>::infinity();
   int best_tri = -1;
-  Feature best_feature = kFace;
+  Feature best_feature = Feature::kFace;
   Vector3d best_point = Vector3d::Zero();
   int stack[kStackSize];
   int top = 0;
@@ -200,7 +159,7 @@ bool MeshDistance::calcSignedDistance(const Vector3d& p, double max_distance, Me
         const int t = order_[i];
         const Eigen::Vector3i& tri = mesh_.triangles[t];
         Feature f;
-        const Vector3d c = closestOnTriangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]], f);
+        const Vector3d c = calcClosestOnTriangle(p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]], f);
         const double d2 = (p - c).squaredNorm();
         if (d2 < best2) {
           best2 = d2;
@@ -230,12 +189,12 @@ bool MeshDistance::calcSignedDistance(const Vector3d& p, double max_distance, Me
   const Eigen::Vector3i& tri = mesh_.triangles[best_tri];
   Vector3d n;
   switch (best_feature) {
-    case kVertexA: n = vertex_pseudonormal_[tri[0]]; break;
-    case kVertexB: n = vertex_pseudonormal_[tri[1]]; break;
-    case kVertexC: n = vertex_pseudonormal_[tri[2]]; break;
-    case kEdgeAB: n = edge_pseudonormal_[tri_edges_[best_tri][0]]; break;
-    case kEdgeBC: n = edge_pseudonormal_[tri_edges_[best_tri][1]]; break;
-    case kEdgeCA: n = edge_pseudonormal_[tri_edges_[best_tri][2]]; break;
+    case Feature::kVertexA: n = vertex_pseudonormal_[tri[0]]; break;
+    case Feature::kVertexB: n = vertex_pseudonormal_[tri[1]]; break;
+    case Feature::kVertexC: n = vertex_pseudonormal_[tri[2]]; break;
+    case Feature::kEdgeAB: n = edge_pseudonormal_[tri_edges_[best_tri][0]]; break;
+    case Feature::kEdgeBC: n = edge_pseudonormal_[tri_edges_[best_tri][1]]; break;
+    case Feature::kEdgeCA: n = edge_pseudonormal_[tri_edges_[best_tri][2]]; break;
     default: n = face_normal_[best_tri]; break;
   }
   const double d = std::sqrt(best2);

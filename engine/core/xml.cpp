@@ -1,5 +1,7 @@
 #include "core/xml.hpp"
 
+#include <filesystem>
+
 #include <tinyxml2.h>
 
 #include "core/strings.hpp"
@@ -129,5 +131,43 @@ std::unique_ptr<Document> Document::parse(const std::string& text, const std::st
 }
 
 Node Document::root() const { return Node(this, doc_->RootElement()); }
+
+Node requireSetupElement(const Document& doc, const char* tag) {
+  const Node root = doc.root();
+  const Node el = root.name() == tag ? root : root.child(tag);
+  if (!el) root.fail(std::string("no <") + tag + "> element (expected it as the root or inside <OpenSimDocument>)");
+  return el;
+}
+
+void checkChildren(const Node& node, const std::set<std::string>& known) {
+  for (const Node& c : node.children())
+    if (!known.count(c.name())) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      c.fail("unknown element <" + c.name() + "> in <" + node.name() + "> (expected one of " + list + ")");
+    }
+}
+
+std::string escape(const std::string& s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string resolvePath(const std::string& base_dir, const std::string& p) {
+  if (p.empty()) return p;
+  const std::filesystem::path path(p);
+  return path.is_absolute() ? p : (std::filesystem::path(base_dir) / path).lexically_normal().string();
+}
 
 }  // namespace kneesim::xml

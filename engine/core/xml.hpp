@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -99,5 +100,22 @@ class Document {
   std::string path_;
   std::unique_ptr<tinyxml2::XMLDocument> doc_;
 };
+
+// Helpers for kneesim's setup files (tools' XML files in OpenSim's style).
+
+/// The element @p tag of a setup file: the root, or the root's child @p tag (inside
+/// <OpenSimDocument>). Throws InputError at the root when neither is there.
+Node requireSetupElement(const Document& doc, const char* tag);
+
+/// Throws InputError at the first child of @p node whose tag is not in @p known, listing them.
+void checkChildren(const Node& node, const std::set<std::string>& known);
+
+/// @p s with XML's five special characters (& < > " ') written as entities, for text and
+/// attribute values.
+std::string escape(const std::string& s);
+
+/// A path @p p read from a setup file in folder @p base_dir: @p p itself if empty or absolute,
+/// else base_dir/p, lexically normalised.
+std::string resolvePath(const std::string& base_dir, const std::string& p);
 
 }  // namespace kneesim::xml

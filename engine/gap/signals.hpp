@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "identify/statistics.hpp"
+
 namespace kneesim::gap {
 
 /// Zero-phase Butterworth low-pass of @p x sampled at @p rate Hz with cut-off @p cutoff Hz: a
@@ -48,10 +50,9 @@ double effectiveSampleSize(int n, double rx, double ry);
 /// Two-sided confidence interval of a correlation @p r from @p n_eff pairs (Fisher z).
 std::pair<double, double> correlationInterval(double r, double n_eff, double level = 0.95);
 
-/// Standard normal quantile.
-double normalQuantile(double p);
-/// Standard normal cumulative distribution.
-double normalCdf(double x);
+/// Standard normal quantile and cumulative distribution (identify/statistics.hpp).
+using identify::normalQuantile;
+using identify::normalCdf;
 /// Student t cumulative distribution with @p dof degrees of freedom (dof > 0, may be fractional).
 double studentCdf(double t, double dof);
 /// Student t quantile.

@@ -24,12 +24,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string resolve(const std::string& dir, const std::string& p) {
-  if (p.empty()) return p;
-  const fs::path path(p);
-  return path.is_absolute() ? p : (fs::path(dir) / path).lexically_normal().string();
-}
-
 std::shared_ptr<model::Model> withMarkers(const model::Model& m, const std::vector<PlacerMarker>& markers,
                                           const std::vector<Vector3d>& p) {
   auto out = std::make_shared<model::Model>(m);
@@ -277,25 +271,17 @@ MarkerPlacerSetup readMarkerPlacerSetup(const std::string& path) {
              "> in MarkerPlacer (expected one of model_file, IKTaskSet, marker_file, time_range, frame_stride, "
              "MarkerPlacerTrialSet, unplaced_markers, fixed_markers, prior_weight, max_marker_movement, "
              "max_iterations, tolerance, accuracy, output_model_file, output_marker_file, output_motion_file)");
-  s.model_file = resolve(dir, tool.childText("model_file"));
+  s.model_file = xml::resolvePath(dir, tool.childText("model_file"));
   if (s.model_file.empty()) tool.fail("missing <model_file>");
-  s.output_model_file = resolve(dir, tool.childText("output_model_file"));
+  s.output_model_file = xml::resolvePath(dir, tool.childText("output_model_file"));
   if (s.output_model_file.empty()) tool.fail("missing <output_model_file>");
-  s.output_marker_file = resolve(dir, tool.childText("output_marker_file"));
-  s.output_motion_file = resolve(dir, tool.childText("output_motion_file"));
+  s.output_marker_file = xml::resolvePath(dir, tool.childText("output_marker_file"));
+  s.output_motion_file = xml::resolvePath(dir, tool.childText("output_motion_file"));
 
-  if (xml::Node set = tool.child("IKTaskSet")) {
-    if (auto file = set.attr("file"); file && !trim(*file).empty() && *file != "Unassigned") {
-      const std::string task_path = resolve(dir, std::string(trim(*file)));
-      if (!fs::exists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
-      s.tasks = readTaskFile(task_path);
-    } else {
-      readTaskSet(set, s.tasks);
-    }
-  }
+  if (xml::Node set = tool.child("IKTaskSet")) s.tasks = readTaskSetElement(set, dir);
 
   auto readTrial = [&](const xml::Node& n, PlacerTrialSpec& t) {
-    t.marker_file = resolve(dir, n.childText("marker_file"));
+    t.marker_file = xml::resolvePath(dir, n.childText("marker_file"));
     if (t.marker_file.empty()) n.fail("missing <marker_file>");
     if (xml::Node tr = n.child("time_range"); tr && !tr.text().empty()) {
       const auto v = tr.toDoubles();

@@ -30,12 +30,6 @@ SourceLocation IkSetup::locate(const std::string& element) const {
 
 namespace {
 
-std::string resolve(const std::string& base_dir, const std::string& p) {
-  if (p.empty()) return p;
-  const fs::path path(p);
-  return path.is_absolute() ? p : (fs::path(base_dir) / path).lexically_normal().string();
-}
-
 bool isIkToolTag(const std::string& tag) {
   // OpenSim accepts its own historical misspellings (e.g. "InverseKinemtaticsTool").
   const std::string t = toLower(tag);
@@ -72,6 +66,17 @@ void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out) {
     spec.where = t.where();
     out.push_back(spec);
   }
+}
+
+std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string& setup_dir) {
+  if (auto file = set.attr("file"); file && !trim(*file).empty() && *file != "Unassigned") {
+    const std::string task_path = xml::resolvePath(setup_dir, std::string(trim(*file)));
+    if (!fs::exists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
+    return readTaskFile(task_path);
+  }
+  std::vector<TaskSpec> tasks;
+  readTaskSet(set, tasks);
+  return tasks;
 }
 
 std::vector<TaskSpec> readTaskFile(const std::string& path) {
@@ -117,18 +122,18 @@ IkSetup readIkSetup(const std::string& path) {
     s.locations[c.name()] = c.where();
   }
 
-  s.model_file = resolve(dir, tool.childText("model_file"));
+  s.model_file = xml::resolvePath(dir, tool.childText("model_file"));
   if (s.model_file.empty()) tool.fail("missing <model_file>");
-  s.marker_file = resolve(dir, tool.childText("marker_file"));
+  s.marker_file = xml::resolvePath(dir, tool.childText("marker_file"));
   if (s.marker_file.empty()) tool.fail("missing <marker_file>");
   const std::string coord = tool.childText("coordinate_file");
-  if (!coord.empty() && coord != "Unassigned") s.coordinate_file = resolve(dir, coord);
+  if (!coord.empty() && coord != "Unassigned") s.coordinate_file = xml::resolvePath(dir, coord);
   std::string out = tool.childText("output_motion_file");
   if (out.empty() || out == "Unassigned") out = (s.name.empty() ? std::string("ik") : s.name) + "_ik.mot";
-  s.output_motion_file = resolve(dir, out);
+  s.output_motion_file = xml::resolvePath(dir, out);
   std::string results = tool.childText("results_directory");
   if (results.empty() || results == "Unassigned") results = ".";
-  s.results_directory = resolve(dir, results);
+  s.results_directory = xml::resolvePath(dir, results);
 
   if (xml::Node cw = tool.child("constraint_weight"); cw && !cw.text().empty()) {
     const std::string t = toLower(cw.text());
@@ -155,15 +160,7 @@ IkSetup readIkSetup(const std::string& path) {
   s.report_errors = tool.childBool("report_errors", true);
   s.report_marker_locations = tool.childBool("report_marker_locations", false);
 
-  if (xml::Node set = tool.child("IKTaskSet")) {
-    if (auto file = set.attr("file"); file && !trim(*file).empty() && *file != "Unassigned") {
-      const std::string task_path = resolve(dir, std::string(trim(*file)));
-      if (!fs::exists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
-      s.tasks = readTaskFile(task_path);
-    } else {
-      readTaskSet(set, s.tasks);
-    }
-  }
+  if (xml::Node set = tool.child("IKTaskSet")) s.tasks = readTaskSetElement(set, dir);
   return s;
 }
 

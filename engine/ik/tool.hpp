@@ -84,6 +84,11 @@ void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out);
 /// Reads an IKTaskSet file (root <IKTaskSet> or <OpenSimDocument><IKTaskSet>).
 std::vector<TaskSpec> readTaskFile(const std::string& path);
 
+/// Reads the <IKTaskSet> element @p set of a setup file in folder @p setup_dir: the tasks of the
+/// file its file="..." attribute names (relative to @p setup_dir; "Unassigned" or empty means
+/// none), else its own tasks. Throws InputError at @p set when the named file does not exist.
+std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string& setup_dir);
+
 /// Per-marker error summary over a run (metres).
 struct MarkerErrorSummary {
   std::string name;        ///< Model marker name.

@@ -11,6 +11,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/strings.hpp"
+#include "core/xml.hpp"
 
 namespace kneesim::model {
 
@@ -42,22 +43,6 @@ Vec3 calcXYZFromRotation(const Mat3& R) {
 
 namespace {
 
-std::string escape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 std::string numbers(const std::vector<double>& v) {
   std::string out;
   for (size_t i = 0; i < v.size(); ++i) out += (i ? " " : "") + formatExact(v[i]);
@@ -87,9 +72,9 @@ class Writer {
       line(0, "-->");
     }
     line(0, "<OpenSimDocument Version=\"40000\">");
-    line(1, "<Model name=\"" + escape(m_.name.empty() ? std::string("model") : m_.name) + "\">");
-    if (!o_.credits.empty()) element(2, "credits", escape(o_.credits));
-    if (!o_.publications.empty()) element(2, "publications", escape(o_.publications));
+    line(1, "<Model name=\"" + xml::escape(m_.name.empty() ? std::string("model") : m_.name) + "\">");
+    if (!o_.credits.empty()) element(2, "credits", xml::escape(o_.credits));
+    if (!o_.publications.empty()) element(2, "publications", xml::escape(o_.publications));
     element(2, "length_units", "meters");
     element(2, "force_units", "N");
     element(2, "gravity", vec3(m_.gravity));
@@ -129,16 +114,16 @@ class Writer {
   }
 
   void writeMesh(int indent, const MeshRef& mesh, const std::string& name) {
-    line(indent, "<Mesh name=\"" + escape(name) + "\">");
+    line(indent, "<Mesh name=\"" + xml::escape(name) + "\">");
     element(indent + 1, "socket_frame", "..");
     element(indent + 1, "scale_factors", vec3(mesh.scale));
-    element(indent + 1, "mesh_file", escape(mesh.file));
+    element(indent + 1, "mesh_file", xml::escape(mesh.file));
     line(indent, "</Mesh>");
   }
 
   void writeOffsetFrame(int indent, const std::string& name, const std::string& parent, const Pose& X) {
-    line(indent, "<PhysicalOffsetFrame name=\"" + escape(name) + "\">");
-    element(indent + 1, "socket_parent", escape(parent));
+    line(indent, "<PhysicalOffsetFrame name=\"" + xml::escape(name) + "\">");
+    element(indent + 1, "socket_parent", xml::escape(parent));
     element(indent + 1, "translation", vec3(X.translation()));
     element(indent + 1, "orientation", vec3(calcXYZFromRotation(X.linear())));
     line(indent, "</PhysicalOffsetFrame>");
@@ -163,11 +148,11 @@ class Writer {
       for (size_t k = 0; k < meshes.size(); ++k) {
         if (isIdentity(meshes[k].X_BG)) continue;
         const std::string frame = names[k] + "_frame";
-        line(indent + 1, "<PhysicalOffsetFrame name=\"" + escape(frame) + "\">");
+        line(indent + 1, "<PhysicalOffsetFrame name=\"" + xml::escape(frame) + "\">");
         line(indent + 2, "<attached_geometry>");
         writeMesh(indent + 3, meshes[k], names[k]);
         line(indent + 2, "</attached_geometry>");
-        element(indent + 2, "socket_parent", escape(bodyPath(body)));
+        element(indent + 2, "socket_parent", xml::escape(bodyPath(body)));
         element(indent + 2, "translation", vec3(meshes[k].X_BG.translation()));
         element(indent + 2, "orientation", vec3(calcXYZFromRotation(meshes[k].X_BG.linear())));
         line(indent + 1, "</PhysicalOffsetFrame>");
@@ -193,7 +178,7 @@ class Writer {
     line(3, "<objects>");
     for (size_t b = 1; b < m_.bodies.size(); ++b) {
       const Body& body = m_.bodies[b];
-      line(4, "<Body name=\"" + escape(body.name) + "\">");
+      line(4, "<Body name=\"" + xml::escape(body.name) + "\">");
       writeFrameContents(5, int(b));
       element(5, "mass", formatExact(body.mass));
       element(5, "mass_center", vec3(body.mass_center));
@@ -256,7 +241,7 @@ class Writer {
   }
 
   void writeCoordinate(int indent, const Coordinate& c) {
-    line(indent, "<Coordinate name=\"" + escape(c.name) + "\">");
+    line(indent, "<Coordinate name=\"" + xml::escape(c.name) + "\">");
     element(indent + 1, "default_value", formatExact(c.default_value));
     element(indent + 1, "default_speed_value", "0");
     element(indent + 1, "range", numbers({c.range_min, c.range_max}));
@@ -312,9 +297,9 @@ class Writer {
       const std::string tag = jointTag(j.type);
       const std::string parent_frame = m_.bodies[j.parent_body].name + "_offset";
       const std::string child_frame = m_.bodies[j.child_body].name + "_offset";
-      line(4, "<" + tag + " name=\"" + escape(j.name) + "\">");
-      element(5, "socket_parent_frame", escape(parent_frame));
-      element(5, "socket_child_frame", escape(child_frame));
+      line(4, "<" + tag + " name=\"" + xml::escape(j.name) + "\">");
+      element(5, "socket_parent_frame", xml::escape(parent_frame));
+      element(5, "socket_child_frame", xml::escape(child_frame));
       if (j.coordinates.empty()) {
         line(5, "<coordinates />");
       } else {
@@ -334,7 +319,7 @@ class Writer {
           line(6, std::string("<TransformAxis name=\"") + axis_names[a] + "\">");
           std::string names;
           for (int c : ax.coordinates) names += (names.empty() ? "" : " ") + m_.coordinates[c].name;
-          element(7, "coordinates", escape(names));
+          element(7, "coordinates", xml::escape(names));
           element(7, "axis", vec3(ax.axis));
           if (ax.function) writeFunction(7, *ax.function, "function");
           line(6, "</TransformAxis>");
@@ -353,13 +338,13 @@ class Writer {
     line(2, "<ConstraintSet name=\"constraintset\">");
     line(3, "<objects>");
     for (const CoordinateCoupler& cc : m_.couplers) {
-      line(4, "<CoordinateCouplerConstraint name=\"" + escape(cc.name) + "\">");
+      line(4, "<CoordinateCouplerConstraint name=\"" + xml::escape(cc.name) + "\">");
       element(5, "isEnforced", "true");
       writeFunction(5, *cc.function, "coupled_coordinates_function");
       std::string names;
       for (int c : cc.independents) names += (names.empty() ? "" : " ") + m_.coordinates[c].name;
-      element(5, "independent_coordinate_names", escape(names));
-      element(5, "dependent_coordinate_name", escape(m_.coordinates[cc.dependent].name));
+      element(5, "independent_coordinate_names", xml::escape(names));
+      element(5, "dependent_coordinate_name", xml::escape(m_.coordinates[cc.dependent].name));
       element(5, "scale_factor", formatExact(cc.scale_factor));
       line(4, "</CoordinateCouplerConstraint>");
     }
@@ -373,8 +358,8 @@ class Writer {
     line(2, "<MarkerSet name=\"markerset\">");
     line(3, "<objects>");
     for (const Marker& mk : m_.markers) {
-      line(4, "<Marker name=\"" + escape(mk.name) + "\">");
-      element(5, "socket_parent_frame", escape(bodyPath(mk.body)));
+      line(4, "<Marker name=\"" + xml::escape(mk.name) + "\">");
+      element(5, "socket_parent_frame", xml::escape(bodyPath(mk.body)));
       element(5, "location", vec3(mk.p_BM));
       element(5, "fixed", mk.fixed ? "true" : "false");
       line(4, "</Marker>");

@@ -348,21 +348,6 @@ std::string num(double v) {
 
 std::string vec(const Vec3& v) { return num(v.x()) + " " + num(v.y()) + " " + num(v.z()); }
 
-std::string escapeXml(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 /// URDF's rpy (R = Rz(yaw) Ry(pitch) Rx(roll)) of a rotation matrix.
 Vec3 rpyOf(const Mat3& R) {
   const double sp = std::max(-1.0, std::min(1.0, -R(2, 0)));
@@ -422,7 +407,7 @@ class UrdfWriter {
     for (size_t b = 0; b < m_.bodies.size(); ++b) writeLink(body, int(b));
     for (const Joint& jt : m_.joints) writeJoint(jt);
     applyCouplers();
-    for (const std::string& l : dummy_links_) body << "  <link name=\"" << escapeXml(l) << "\"/>\n";
+    for (const std::string& l : dummy_links_) body << "  <link name=\"" << xml::escape(l) << "\"/>\n";
     for (const UrdfJoint& uj : urdf_joints_) writeUrdfJoint(body, uj);
 
     if (!m_.markers.empty())
@@ -441,9 +426,9 @@ class UrdfWriter {
     if (!defaults.empty()) note("default values dropped (URDF's zero pose has every joint at 0): " + defaults);
     std::ostringstream out;
     out << "<?xml version=\"1.0\"?>\n";
-    out << "<!-- Written by kneesim from " << escapeXml(m_.source_file.empty() ? "a model built in code" : m_.source_file)
+    out << "<!-- Written by kneesim from " << xml::escape(m_.source_file.empty() ? "a model built in code" : m_.source_file)
         << ". Lengths in metres, angles in radians. -->\n";
-    out << "<robot name=\"" << escapeXml(m_.name.empty() ? "kneesim" : m_.name) << "\">\n";
+    out << "<robot name=\"" << xml::escape(m_.name.empty() ? "kneesim" : m_.name) << "\">\n";
     out << body.str();
     out << "</robot>\n";
     return out.str();
@@ -475,7 +460,7 @@ class UrdfWriter {
 
   void writeLink(std::ostream& o, int b) {
     const Body& body = m_.bodies[b];
-    o << "  <link name=\"" << escapeXml(linkName(b)) << "\">\n";
+    o << "  <link name=\"" << xml::escape(linkName(b)) << "\">\n";
     if (b > 0 && body.mass > 0.0) {
       const Mat3& I = body.inertia;
       o << "    <inertial>\n      " << origin(translation(body.mass_center)) << "\n      <mass value=\""
@@ -485,7 +470,7 @@ class UrdfWriter {
     }
     for (const MeshRef& mesh : body.meshes) {
       const std::string file = mesh.resolved_path.empty() ? mesh.file : mesh.resolved_path;
-      o << "    <visual>\n      " << origin(mesh.X_BG) << "\n      <geometry><mesh filename=\"" << escapeXml(file)
+      o << "    <visual>\n      " << origin(mesh.X_BG) << "\n      <geometry><mesh filename=\"" << xml::escape(file)
         << "\" scale=\"" << vec(mesh.scale) << "\"/></geometry>\n    </visual>\n";
     }
     o << "  </link>\n";
@@ -689,8 +674,8 @@ class UrdfWriter {
   }
 
   void writeUrdfJoint(std::ostream& o, const UrdfJoint& uj) {
-    o << "  <joint name=\"" << escapeXml(uj.name) << "\" type=\"" << uj.type << "\">\n";
-    o << "    <parent link=\"" << escapeXml(uj.parent) << "\"/>\n    <child link=\"" << escapeXml(uj.child)
+    o << "  <joint name=\"" << xml::escape(uj.name) << "\" type=\"" << uj.type << "\">\n";
+    o << "    <parent link=\"" << xml::escape(uj.parent) << "\"/>\n    <child link=\"" << xml::escape(uj.child)
       << "\"/>\n    " << origin(uj.origin) << "\n";
     if (uj.type != "fixed") {
       o << "    <axis xyz=\"" << vec(uj.axis) << "\"/>\n";
@@ -701,7 +686,7 @@ class UrdfWriter {
         o << "    <limit lower=\"" << num(lo) << "\" upper=\"" << num(hi) << "\" effort=\"0\" velocity=\"0\"/>\n";
       }
       if (!uj.mimic_joint.empty())
-        o << "    <mimic joint=\"" << escapeXml(uj.mimic_joint) << "\" multiplier=\"" << num(uj.multiplier)
+        o << "    <mimic joint=\"" << xml::escape(uj.mimic_joint) << "\" multiplier=\"" << num(uj.multiplier)
           << "\" offset=\"" << num(uj.offset) << "\"/>\n";
     }
     o << "  </joint>\n";

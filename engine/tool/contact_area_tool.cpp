@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
-#include <set>
 #include <sstream>
 
 #include "contact/contact_output.hpp"
@@ -28,31 +27,15 @@ using contact::kDegree;
 
 namespace {
 
-std::string resolve(const std::string& base_dir, const std::string& p) {
-  if (p.empty()) return p;
-  const fs::path path(p);
-  return path.is_absolute() ? p : (fs::path(base_dir) / path).lexically_normal().string();
-}
-
 std::string formatSeconds(double t) {
   std::ostringstream os;
   os << std::setprecision(6) << t;
   return os.str();
 }
 
-// Fails at @p node unless every child's tag is in @p known.
-void checkChildren(const xml::Node& node, const std::set<std::string>& known) {
-  for (const xml::Node& c : node.children())
-    if (!known.count(c.name())) {
-      std::string list;
-      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      c.fail("unknown element <" + c.name() + "> in <" + node.name() + "> (expected one of " + list + ")");
-    }
-}
-
 contact::ComponentDirections readDirections(const xml::Node& node, const contact::ComponentDirections& fallback) {
   if (!node) return fallback;
-  checkChildren(node, {"posterior", "superior", "medial"});
+  xml::checkChildren(node, {"posterior", "superior", "medial"});
   contact::ComponentDirections d;
   d.posterior = node.childVec3("posterior", fallback.posterior);
   d.superior = node.childVec3("superior", fallback.superior);
@@ -69,7 +52,7 @@ double readLength(const xml::Node& node) {
 }
 
 HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
-  checkChildren(h, {"flexion_deg", "flexion_range_deg", "time_step", "flexion_file", "flexion_column",
+  xml::checkChildren(h, {"flexion_deg", "flexion_range_deg", "time_step", "flexion_file", "flexion_column",
                     "knee_forces_file", "flexion_scale", "flexion_offset_deg", "free_internal_rotation",
                     "seating_grid_deg"});
   HingeKinematicsSpec s;
@@ -92,7 +75,7 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   if (xml::Node n = h.child("flexion_file")) {
     ++sources;
     s.source = HingeKinematicsSpec::Source::file_column;
-    s.file = resolve(dir, n.text());
+    s.file = xml::resolvePath(dir, n.text());
     s.column = h.childText("flexion_column");
     if (s.column.empty()) h.fail("<flexion_file> needs a <flexion_column> naming the flexion column");
   } else if (h.child("flexion_column")) {
@@ -101,7 +84,7 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   if (xml::Node n = h.child("knee_forces_file")) {
     ++sources;
     s.source = HingeKinematicsSpec::Source::goniometer;
-    s.file = resolve(dir, n.text());
+    s.file = xml::resolvePath(dir, n.text());
   }
   if (sources != 1)
     h.fail("expected exactly one flexion source (flexion_deg, flexion_range_deg, flexion_file or knee_forces_file), "
@@ -123,11 +106,11 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
 }
 
 ModelKinematicsSpec readModelSpec(const xml::Node& m, const std::string& dir) {
-  checkChildren(m, {"model_file", "motion_file", "femoral_body", "insert_body", "femoral_mesh", "insert_mesh"});
+  xml::checkChildren(m, {"model_file", "motion_file", "femoral_body", "insert_body", "femoral_mesh", "insert_mesh"});
   ModelKinematicsSpec s;
   s.where = m.where();
-  s.model_file = resolve(dir, m.requireChild("model_file").text());
-  s.motion_file = resolve(dir, m.requireChild("motion_file").text());
+  s.model_file = xml::resolvePath(dir, m.requireChild("model_file").text());
+  s.motion_file = xml::resolvePath(dir, m.requireChild("motion_file").text());
   s.femoral_body = m.requireChild("femoral_body").text();
   s.insert_body = m.requireChild("insert_body").text();
   s.femoral_mesh = m.childText("femoral_mesh");
@@ -392,16 +375,14 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
   ContactAreaSetup s;
   s.setup_file = path;
   const std::string dir = fs::path(path).parent_path().string();
-  xml::Node root = doc->root();
-  xml::Node tool = root.name() == "ContactAreaTool" ? root : root.child("ContactAreaTool");
-  if (!tool) root.fail("no <ContactAreaTool> element (expected it as the root or inside <OpenSimDocument>)");
+  const xml::Node tool = xml::requireSetupElement(*doc, "ContactAreaTool");
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
-  checkChildren(tool, {"femoral_component_file", "insert_file", "mesh_scale", "threshold", "extra_thresholds",
+  xml::checkChildren(tool, {"femoral_component_file", "insert_file", "mesh_scale", "threshold", "extra_thresholds",
                        "area_rule", "distance_provider", "plugins", "insert_directions", "femur_directions",
                        "max_normal_angle_deg", "HingeKinematics", "ModelKinematics", "time_range",
                        "results_directory", "output_file", "write_vtp", "vtp_every", "vtp_femur", "hinge_file"});
-  s.femur_file = resolve(dir, tool.requireChild("femoral_component_file").text());
-  s.insert_file = resolve(dir, tool.requireChild("insert_file").text());
+  s.femur_file = xml::resolvePath(dir, tool.requireChild("femoral_component_file").text());
+  s.insert_file = xml::resolvePath(dir, tool.requireChild("insert_file").text());
   if (s.femur_file.empty() || s.insert_file.empty()) tool.fail("expected femoral_component_file and insert_file");
   if (xml::Node n = tool.child("mesh_scale")) {
     s.mesh_scale = n.toDouble();
@@ -445,10 +426,10 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
   }
   std::string results = tool.childText("results_directory");
   if (results.empty()) results = ".";
-  s.results_directory = resolve(dir, results);
+  s.results_directory = xml::resolvePath(dir, results);
   std::string out = tool.childText("output_file");
   if (out.empty()) out = s.name + "_contact_area.sto";
-  s.output_file = resolve(s.results_directory, out);
+  s.output_file = xml::resolvePath(s.results_directory, out);
   s.write_vtp = tool.childBool("write_vtp", false);
   if (xml::Node n = tool.child("vtp_every")) {
     const long e = n.toInt();
@@ -456,7 +437,7 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
     s.vtp_every = int(e);
   }
   s.vtp_femur = tool.childBool("vtp_femur", true);
-  if (xml::Node n = tool.child("hinge_file")) s.hinge_file = resolve(s.results_directory, n.text());
+  if (xml::Node n = tool.child("hinge_file")) s.hinge_file = xml::resolvePath(s.results_directory, n.text());
   return s;
 }
 

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
-#include <set>
 #include <sstream>
 #include <thread>
 
@@ -35,12 +34,6 @@ constexpr double kDeg = M_PI / 180.0;
 // Dao & Pouletaut 2015, section 3.3: peak contact areas of the five gaits.
 constexpr double kPaperPeakLow = 1016e-6, kPaperPeakHigh = 1117e-6;
 
-std::string resolve(const std::string& base_dir, const std::string& p) {
-  if (p.empty()) return p;
-  const fs::path path(p);
-  return path.is_absolute() ? p : (fs::path(base_dir) / path).lexically_normal().string();
-}
-
 std::string fmt(double v, int digits = 6) {
   std::ostringstream os;
   os << std::setprecision(digits) << v;
@@ -49,15 +42,6 @@ std::string fmt(double v, int digits = 6) {
 
 json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-void checkChildren(const xml::Node& node, const std::set<std::string>& known) {
-  for (const xml::Node& c : node.children())
-    if (!known.count(c.name())) {
-      std::string list;
-      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      c.fail("unknown element <" + c.name() + "> in <" + node.name() + "> (expected one of " + list + ")");
-    }
-}
-
 double readPositive(const xml::Node& n, const std::string& what) {
   const double v = n.toDouble();
   if (!(v > 0) || !std::isfinite(v)) n.fail("expected " + what + " > 0, got " + n.text());
@@ -65,7 +49,7 @@ double readPositive(const xml::Node& n, const std::string& what) {
 }
 
 WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
-  checkChildren(t, {"ik_setup_file", "motion_file", "goniometer", "knee_forces_file", "c3d_file", "heel_marker",
+  xml::checkChildren(t, {"ik_setup_file", "motion_file", "goniometer", "knee_forces_file", "c3d_file", "heel_marker",
                     "gait_events", "window", "time_range", "fit"});
   WorkflowTrialSpec s;
   s.where = t.where();
@@ -79,17 +63,17 @@ WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
   if (xml::Node n = t.child("ik_setup_file")) {
     ++sources;
     s.source = WorkflowTrialSpec::Source::ik;
-    s.ik_setup_file = resolve(dir, n.text());
+    s.ik_setup_file = xml::resolvePath(dir, n.text());
   }
   if (xml::Node n = t.child("motion_file")) {
     ++sources;
     s.source = WorkflowTrialSpec::Source::motion;
-    s.motion_file = resolve(dir, n.text());
+    s.motion_file = xml::resolvePath(dir, n.text());
   }
   if (xml::Node g = t.child("goniometer")) {
     ++sources;
     s.source = WorkflowTrialSpec::Source::goniometer;
-    checkChildren(g, {"scale", "offset_deg", "calibrate_on", "units", "volts_to_degrees"});
+    xml::checkChildren(g, {"scale", "offset_deg", "calibrate_on", "units", "volts_to_degrees"});
     s.calibrate_on = g.child("calibrate_on") ? g.child("calibrate_on").toWords() : std::vector<std::string>{};
     if (!s.calibrate_on.empty() && (g.child("scale") || g.child("offset_deg")))
       g.fail("expected either <calibrate_on> or <scale>/<offset_deg>, got both");
@@ -114,9 +98,9 @@ WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
   if (sources != 1)
     t.fail("expected exactly one kinematics source (ik_setup_file, motion_file or goniometer), got " +
            std::to_string(sources));
-  s.knee_forces_file = resolve(dir, t.requireChild("knee_forces_file").text());
+  s.knee_forces_file = xml::resolvePath(dir, t.requireChild("knee_forces_file").text());
   if (s.knee_forces_file.empty()) t.fail("expected a knee_forces_file");
-  s.c3d_file = resolve(dir, t.childText("c3d_file"));
+  s.c3d_file = xml::resolvePath(dir, t.childText("c3d_file"));
   s.heel_marker = t.childText("heel_marker", "RHeel");
   if (xml::Node n = t.child("gait_events")) {
     s.gait_events = n.toDoubles();
@@ -147,7 +131,7 @@ WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
 }
 
 void readLaw(const xml::Node& l, WorkflowSetup& s) {
-  checkChildren(l, {"plugins", "name", "free_parameters", "parameter", "bounds", "assumed", "confidence_level",
+  xml::checkChildren(l, {"plugins", "name", "free_parameters", "parameter", "bounds", "assumed", "confidence_level",
                     "bootstrap_samples", "bootstrap_mode", "profile"});
   if (xml::Node n = l.child("plugins")) s.law_plugins = n.toWords();
   s.law = l.childText("name", "hertz");
@@ -184,24 +168,22 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
   WorkflowSetup s;
   s.setup_file = path;
   const std::string dir = fs::path(path).parent_path().string();
-  xml::Node root = doc->root();
-  xml::Node tool = root.name() == "KneeContactWorkflow" ? root : root.child("KneeContactWorkflow");
-  if (!tool) root.fail("no <KneeContactWorkflow> element (expected it as the root or inside <OpenSimDocument>)");
+  const xml::Node tool = xml::requireSetupElement(*doc, "KneeContactWorkflow");
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
-  checkChildren(tool, {"model_file", "femoral_component_file", "insert_file", "mesh_scale", "femoral_body",
+  xml::checkChildren(tool, {"model_file", "femoral_component_file", "insert_file", "mesh_scale", "femoral_body",
                        "insert_body", "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule",
                        "distance_provider", "plugins", "kinematics", "flexion_coordinate", "seating_grid_deg",
                        "body_mass", "Trial", "ContactLaw", "threshold_sensitivity", "agreement_fraction",
                        "results_directory", "plots", "gnuplot", "plot_scripts", "threads", "area_derivatives",
                        "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file"});
   s.fit.where = tool.where();
-  s.model_file = resolve(dir, tool.requireChild("model_file").text());
+  s.model_file = xml::resolvePath(dir, tool.requireChild("model_file").text());
   ContactAreaSetup& c = s.contact;
   c.setup_file = path;
   c.name = s.name;
   c.use_model = true;
-  c.femur_file = resolve(dir, tool.requireChild("femoral_component_file").text());
-  c.insert_file = resolve(dir, tool.requireChild("insert_file").text());
+  c.femur_file = xml::resolvePath(dir, tool.requireChild("femoral_component_file").text());
+  c.insert_file = xml::resolvePath(dir, tool.requireChild("insert_file").text());
   if (xml::Node n = tool.child("mesh_scale")) c.mesh_scale = readPositive(n, "a mesh scale");
   c.model.model_file = s.model_file;
   c.model.femoral_body = tool.childText("femoral_body", "femoral_component");
@@ -251,7 +233,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
     s.ap_step = d;
   }
   if (xml::Node n = tool.child("gap_setup_file"))
-    for (const std::string& f : n.toWords()) s.gap_setup_files.push_back(resolve(dir, f));
+    for (const std::string& f : n.toWords()) s.gap_setup_files.push_back(xml::resolvePath(dir, f));
   s.fit.body_mass = s.body_mass;
   for (const xml::Node& t : tool.children("Trial")) {
     s.trials.push_back(readTrial(t, dir));
@@ -277,7 +259,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
   }
   std::string results = tool.childText("results_directory");
   if (results.empty()) results = ".";
-  s.results_directory = resolve(dir, results);
+  s.results_directory = xml::resolvePath(dir, results);
   c.results_directory = s.results_directory;
   s.plots = tool.childBool("plots", true);
   s.gnuplot = tool.childText("gnuplot", "gnuplot");
@@ -1046,7 +1028,16 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       const bool by_cycle = !cyc.empty();
       const std::vector<const WorkflowTrialResult*>& main = by_cycle ? cyc : other;
       const std::string xl = by_cycle ? "gait cycle (%, heel strike to heel strike, from the force plates)" : "time (s)";
-      const auto limitToCycle = [&](Plot& p) {
+      // Figures 6-8: the main trials against the shared x axis, limited to the cycle with its toe-offs.
+      const auto startMainPlot = [&](const std::string& name, const std::string& title, const std::string& ylabel) {
+        Plot p;
+        p.file = pdir + "/" + name + ".png";
+        p.title = title;
+        p.xlabel = xl;
+        p.ylabel = ylabel;
+        return p;
+      };
+      const auto addMainPlot = [&](Plot& p) {
         if (by_cycle) {
           p.xmin = 0;
           p.xmax = 100;
@@ -1054,13 +1045,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
             if (std::isfinite(r->cycle.toe_off))
               p.vlines.push_back({r->cycle.getToeOffPercent(), main.size() == 1 ? "toe-off" : "toe-off " + r->name});
         }
+        plots.push_back(std::move(p));
       };
       {
-        Plot p;
-        p.file = pdir + "/fig6_knee_flexion.png";
-        p.title = "Knee flexion (after Dao & Pouletaut 2015, Fig. 6)";
-        p.xlabel = xl;
-        p.ylabel = setup.flexion_coordinate + (flex_rot ? " (deg)" : "");
+        Plot p = startMainPlot("fig6_knee_flexion", "Knee flexion (after Dao & Pouletaut 2015, Fig. 6)",
+                               setup.flexion_coordinate + (flex_rot ? " (deg)" : ""));
         int c = 0;
         for (const auto* r : main) {
           std::vector<double> y;
@@ -1082,15 +1071,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
                                 kColors[c % 7], 2, 1.5});
           ++c;
         }
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       {
-        Plot p;
-        p.file = pdir + "/fig7_contact_area.png";
-        p.title = "Implant contact area (after Dao & Pouletaut 2015, Fig. 7)";
-        p.xlabel = xl;
-        p.ylabel = "contact area (mm²)";
+        Plot p = startMainPlot("fig7_contact_area", "Implant contact area (after Dao & Pouletaut 2015, Fig. 7)",
+                               "contact area (mm²)");
         int c = 0;
         for (const auto* r : main) {
           const auto x = plotAxis(*r, by_cycle);
@@ -1107,15 +1092,12 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
         }
         p.hlines.push_back({kPaperPeakLow * 1e6, "paper's peaks 1016-1117 mm² (4 mm)"});
         p.hlines.push_back({kPaperPeakHigh * 1e6, ""});
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       {
-        Plot p;
-        p.file = pdir + "/fig8_compartment_forces.png";
-        p.title = "Measured compartment forces, eKnee and equation 4 (after Dao & Pouletaut 2015, Fig. 8)";
-        p.xlabel = xl;
-        p.ylabel = "force (N)";
+        Plot p = startMainPlot("fig8_compartment_forces",
+                               "Measured compartment forces, eKnee and equation 4 (after Dao & Pouletaut 2015, Fig. 8)",
+                               "force (N)");
         int c = 0;
         for (const auto* r : main) {
           const auto x = plotAxis(*r, by_cycle);
@@ -1123,8 +1105,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
           p.series.push_back({r->name + " lateral", x, r->forces.lateral, "lines", kColors[c % 7], 2});
           ++c;
         }
-        limitToCycle(p);
-        plots.push_back(p);
+        addMainPlot(p);
       }
       for (const TrialState& st : states) {
         const WorkflowTrialResult& r = st.result;

@@ -31,12 +31,6 @@ namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-std::string resolve(const std::string& dir, const std::string& p) {
-  if (p.empty()) return p;
-  const fs::path path(p);
-  return path.is_absolute() ? p : (fs::path(dir) / path).lexically_normal().string();
-}
-
 // "-x z y": the lab direction of each model axis.
 Matrix3d parseLabAxes(const xml::Node& n) {
   const std::vector<std::string> words = n.toWords();
@@ -200,7 +194,7 @@ KneeModelSetup readKneeModelSetup(const std::string& path) {
              "MarkerSet, CoordinateRanges)");
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
   auto required = [&](const char* tag) {
-    const std::string v = resolve(dir, tool.requireChild(tag).text());
+    const std::string v = xml::resolvePath(dir, tool.requireChild(tag).text());
     if (v.empty()) tool.child(tag).fail(std::string("expected a file name in <") + tag + ">, got nothing");
     return v;
   };
@@ -208,12 +202,12 @@ KneeModelSetup readKneeModelSetup(const std::string& path) {
   s.femoral_component_file = required("femoral_component_file");
   s.tibial_insert_file = required("tibial_insert_file");
   s.output_model_file = required("output_model_file");
-  s.tibial_tray_file = resolve(dir, tool.childText("tibial_tray_file"));
+  s.tibial_tray_file = xml::resolvePath(dir, tool.childText("tibial_tray_file"));
   s.patellar_button_file = required("patellar_button_file");
-  s.patella_bone_file = resolve(dir, tool.childText("patella_bone_file"));
-  s.fibula_file = resolve(dir, tool.childText("fibula_file"));
-  s.talus_file = resolve(dir, tool.childText("talus_file"));
-  s.path_file = resolve(dir, tool.childText("path_file"));
+  s.patella_bone_file = xml::resolvePath(dir, tool.childText("patella_bone_file"));
+  s.fibula_file = xml::resolvePath(dir, tool.childText("fibula_file"));
+  s.talus_file = xml::resolvePath(dir, tool.childText("talus_file"));
+  s.path_file = xml::resolvePath(dir, tool.childText("path_file"));
   s.neutral_flexion = tool.childDouble("neutral_flexion", 0.0) * kDeg;
   if (xml::Node k = tool.child("flexion_knots")) {
     const std::vector<double> v = k.toDoubles();

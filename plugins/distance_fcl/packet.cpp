@@ -73,7 +73,7 @@ KNEESIM_AVX2 bool anyBelow(__m256 lb, __m256 bound) {
 // Distance of the points of the lanes set in `lanes` (and their half-packet's) to triangle t, in
 // double; lanes it beats take it. The distance
 // is the plane's where the point projects inside the triangle, else the nearest edge segment's:
-// the value closestOnTriangle gives, without branches. Returns whether a lane improved.
+// the value calcClosestOnTriangle gives, without branches. Returns whether a lane improved.
 KNEESIM_AVX2 bool leafTest8(const Target& tg, int t, int lanes, Packet& pk) {
   const Eigen::Vector3i& tri = tg.getTriangle(t);
   const Vec3* o[3] = {&tg.getVertex(tri[0]), &tg.getVertex(tri[1]), &tg.getVertex(tri[2])};

@@ -7,45 +7,6 @@
 
 namespace kneesim_distance_fcl {
 
-Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Feature& feature) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) {
-    feature = kVertexA;
-    return a;
-  }
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) {
-    feature = kVertexB;
-    return b;
-  }
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    feature = kEdgeAB;
-    return a + (d1 / (d1 - d3)) * ab;
-  }
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) {
-    feature = kVertexC;
-    return c;
-  }
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    feature = kEdgeCA;
-    return a + (d2 / (d2 - d6)) * ac;
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    feature = kEdgeBC;
-    return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  feature = kFace;
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 std::string Target::build(const kneesim_mesh_view& view, bool compact) {
   const int nv = view.n_vertices, nt = view.n_triangles;
   if (nv <= 0 || nt <= 0 || !view.vertices || !view.triangles)
@@ -187,15 +148,15 @@ void Target::buildCompactTree() {
 double Target::signedDistance(const Vec3& p, int t, Vec3& closest) const {
   const Eigen::Vector3i& tri = triangles_[size_t(t)];
   Feature f;
-  closest = closestOnTriangle(p, vertices_[size_t(tri[0])], vertices_[size_t(tri[1])], vertices_[size_t(tri[2])], f);
+  closest = calcClosestOnTriangle(p, vertices_[size_t(tri[0])], vertices_[size_t(tri[1])], vertices_[size_t(tri[2])], f);
   const Vec3* n;
   switch (f) {
-    case kVertexA: n = &vertex_normal_[size_t(tri[0])]; break;
-    case kVertexB: n = &vertex_normal_[size_t(tri[1])]; break;
-    case kVertexC: n = &vertex_normal_[size_t(tri[2])]; break;
-    case kEdgeAB: n = &edge_normal_[size_t(tri_edges_[size_t(t)][0])]; break;
-    case kEdgeBC: n = &edge_normal_[size_t(tri_edges_[size_t(t)][1])]; break;
-    case kEdgeCA: n = &edge_normal_[size_t(tri_edges_[size_t(t)][2])]; break;
+    case Feature::kVertexA: n = &vertex_normal_[size_t(tri[0])]; break;
+    case Feature::kVertexB: n = &vertex_normal_[size_t(tri[1])]; break;
+    case Feature::kVertexC: n = &vertex_normal_[size_t(tri[2])]; break;
+    case Feature::kEdgeAB: n = &edge_normal_[size_t(tri_edges_[size_t(t)][0])]; break;
+    case Feature::kEdgeBC: n = &edge_normal_[size_t(tri_edges_[size_t(t)][1])]; break;
+    case Feature::kEdgeCA: n = &edge_normal_[size_t(tri_edges_[size_t(t)][2])]; break;
     default: n = &face_normal_[size_t(t)]; break;
   }
   const Vec3 r = p - closest;
@@ -206,7 +167,7 @@ double Target::signedDistance(const Vec3& p, int t, Vec3& closest) const {
 double Target::unsignedDistance(const Vec3& p, int t) const {
   const Eigen::Vector3i& tri = triangles_[size_t(t)];
   Feature f;
-  return (p - closestOnTriangle(p, vertices_[size_t(tri[0])], vertices_[size_t(tri[1])], vertices_[size_t(tri[2])], f))
+  return (p - calcClosestOnTriangle(p, vertices_[size_t(tri[0])], vertices_[size_t(tri[1])], vertices_[size_t(tri[2])], f))
       .norm();
 }
 

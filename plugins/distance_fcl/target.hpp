@@ -9,17 +9,16 @@
 
 #include <fcl/fcl.h>
 
+#include "contact/closest_point.hpp"
 #include "plugin/kneesim_plugin.h"
 
 namespace kneesim_distance_fcl {
 
 using Vec3 = Eigen::Vector3d;
 
-enum Feature { kVertexA, kVertexB, kVertexC, kEdgeAB, kEdgeBC, kEdgeCA, kFace };
-
-// Closest point of triangle abc to p and the Voronoi feature it lies on (Ericson, Real-Time
-// Collision Detection, 5.1.5).
-Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c, Feature& feature);
+// The engine's closest-point routine (header-only: inlined into the searches here).
+using Feature = kneesim::contact::TriangleFeature;
+using kneesim::contact::calcClosestOnTriangle;
 
 // Up to eight query points searched together, one AVX2 lane each (struct of arrays). Unused
 // lanes have best2 < 0: they never need a node.

@@ -35,5 +35,49 @@ TEST(Xml, ElementPathAndTypedReads) {
   EXPECT_THROW(body.requireChild("inertia"), InputError);
 }
 
+TEST(Xml, SetupElementAsRootOrInsideOpenSimDocument) {
+  auto bare = Document::parse("<MyTool name=\"t\"/>", "a.xml");
+  EXPECT_EQ(requireSetupElement(*bare, "MyTool").nameAttr(), "t");
+  auto wrapped = Document::parse("<OpenSimDocument>\n <MyTool name=\"u\"/>\n</OpenSimDocument>", "b.xml");
+  const Node tool = requireSetupElement(*wrapped, "MyTool");
+  EXPECT_EQ(tool.nameAttr(), "u");
+  EXPECT_EQ(tool.line(), 2);
+  try {
+    requireSetupElement(*wrapped, "OtherTool");
+    FAIL() << "no throw";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "b.xml:1: OpenSimDocument: no <OtherTool> element (expected it as the root or inside <OpenSimDocument>)");
+  }
+}
+
+TEST(Xml, CheckChildrenNamesTheUnknownElementAndTheKnownOnes) {
+  auto doc = Document::parse("<T>\n <b/>\n <a/>\n <c/>\n</T>", "c.xml");
+  EXPECT_NO_THROW(checkChildren(doc->root(), {"a", "b", "c"}));
+  try {
+    checkChildren(doc->root(), {"b", "a"});
+    FAIL() << "no throw";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "c.xml:4: T/c: unknown element <c> in <T> (expected one of a, b)");
+  }
+}
+
+TEST(Xml, EscapeWritesTheFiveEntitiesAndParsesBack) {
+  const std::string raw = "a&b <c> \"d\" 'e' f";
+  EXPECT_EQ(escape(raw), "a&amp;b &lt;c&gt; &quot;d&quot; &apos;e&apos; f");
+  EXPECT_EQ(escape(""), "");
+  auto doc = Document::parse("<t v=\"" + escape(raw) + "\">" + escape(raw) + "</t>", "e.xml");
+  EXPECT_EQ(*doc->root().attr("v"), raw);
+  EXPECT_EQ(doc->root().text(), raw);
+}
+
+TEST(Xml, ResolvePathAgainstTheSetupFolder) {
+  EXPECT_EQ(resolvePath("/data/setups", ""), "");
+  EXPECT_EQ(resolvePath("/data/setups", "/abs/m.osim"), "/abs/m.osim");
+  EXPECT_EQ(resolvePath("/data/setups", "../models/m.osim"), "/data/models/m.osim");
+  EXPECT_EQ(resolvePath("/data/setups", "./a//b.trc"), "/data/setups/a/b.trc");
+  EXPECT_EQ(resolvePath("", "m.osim"), "m.osim");
+}
+
 }  // namespace
 }  // namespace kneesim::xml
