@@ -100,6 +100,13 @@ bool parseBool(std::string_view s, const SourceLocation& where) {
   throw InputError(where, "expected true or false, got '" + std::string(trim(s)) + "'");
 }
 
+std::string formatSignificant(double v, int digits) {
+  std::ostringstream s;
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
 std::string readFileText(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError({path, 0, ""}, std::string("cannot open file: ") + std::strerror(errno));

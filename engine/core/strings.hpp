@@ -32,6 +32,10 @@ long parseInt(std::string_view s, const SourceLocation& where);
 /// Parses "true"/"false" (any case) or throws InputError at @p where.
 bool parseBool(std::string_view s, const SourceLocation& where);
 
+/// @p v with @p digits significant digits, as an ostream with that precision prints it ("0.25",
+/// "1.5e+06", "nan"): for messages and reports.
+std::string formatSignificant(double v, int digits);
+
 /// Reads a whole file into a string; throws InputError naming the file if it cannot be read.
 std::string readFileText(const std::string& path);
 

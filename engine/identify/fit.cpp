@@ -5,11 +5,11 @@
 #include <limits>
 #include <random>
 #include <set>
-#include <sstream>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "core/strings.hpp"
 #include "identify/least_squares.hpp"
 #include "identify/statistics.hpp"
 
@@ -48,12 +48,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string fmt(double v, int digits = 6) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+std::string fmt(double v, int digits = 6) { return formatSignificant(v, digits); }
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return kNaN;

@@ -2,18 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
+
+#include "core/strings.hpp"
 
 namespace kneesim::identify {
 
 namespace {
 
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
+std::string fmt(double v) { return formatSignificant(v, 6); }
 
 std::string describeWindows(const std::vector<TimeWindow>& w) {
   std::string s;

@@ -1,18 +1,14 @@
 #include "io/goniometer.hpp"
 
 #include <cmath>
-#include <sstream>
+
+#include "core/strings.hpp"
 
 namespace kneesim::io {
 
 namespace {
 
-std::string fmt(double v, int digits = 5) {
-  std::ostringstream s;
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+std::string fmt(double v, int digits = 5) { return formatSignificant(v, digits); }
 
 }  // namespace
 

@@ -27,11 +27,7 @@ using contact::kDegree;
 
 namespace {
 
-std::string formatSeconds(double t) {
-  std::ostringstream os;
-  os << std::setprecision(6) << t;
-  return os.str();
-}
+std::string formatSeconds(double t) { return formatSignificant(t, 6); }
 
 contact::ComponentDirections readDirections(const xml::Node& node, const contact::ComponentDirections& fallback) {
   if (!node) return fallback;

@@ -34,11 +34,7 @@ constexpr double kDeg = M_PI / 180.0;
 // Dao & Pouletaut 2015, section 3.3: peak contact areas of the five gaits.
 constexpr double kPaperPeakLow = 1016e-6, kPaperPeakHigh = 1117e-6;
 
-std::string fmt(double v, int digits = 6) {
-  std::ostringstream os;
-  os << std::setprecision(digits) << v;
-  return os.str();
-}
+std::string fmt(double v, int digits = 6) { return formatSignificant(v, digits); }
 
 json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 

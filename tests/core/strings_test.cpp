@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace kneesim {
 namespace {
@@ -36,6 +37,17 @@ TEST(Strings, ParseDoubleRejectsTrailingGarbage) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "f.xml:3: Model/mass: expected a number, got 'abc'");
   }
+}
+
+TEST(Strings, FormatSignificantDigits) {
+  EXPECT_EQ(formatSignificant(0.25, 6), "0.25");
+  EXPECT_EQ(formatSignificant(1.0 / 3.0, 3), "0.333");
+  EXPECT_EQ(formatSignificant(2.0 / 3.0, 4), "0.6667");
+  EXPECT_EQ(formatSignificant(1.5e6, 3), "1.5e+06");
+  EXPECT_EQ(formatSignificant(-0.000123456, 2), "-0.00012");
+  EXPECT_EQ(formatSignificant(123456.0, 6), "123456");
+  EXPECT_EQ(formatSignificant(1234567.0, 6), "1.23457e+06");
+  EXPECT_EQ(formatSignificant(std::numeric_limits<double>::infinity(), 6), "inf");
 }
 
 TEST(Strings, ParseBool) {
