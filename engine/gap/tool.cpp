@@ -13,11 +13,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string resolve(const std::string& dir, const std::string& p) {
-  if (p.empty() || fs::path(p).is_absolute()) return p;
-  return (fs::path(dir) / p).lexically_normal().string();
-}
-
 // "name value name value ..." into a map; fails on an odd count or a non-number.
 std::map<std::string, double> pairs(const xml::Node& n) {
   std::map<std::string, double> m;
@@ -53,11 +48,11 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   s.name = t.nameAttr();
   if (s.name.empty()) t.fail("expected a name attribute on <Trial>");
   s.activity = t.attr("activity").value_or("gait");
-  s.knee_forces = resolve(dir, t.childText("knee_forces"));
+  s.knee_forces = xml::resolvePath(dir, t.childText("knee_forces"));
   if (s.knee_forces.empty()) t.fail("missing <knee_forces>");
-  s.contact_area = resolve(dir, t.childText("contact_area"));
-  s.c3d = resolve(dir, t.childText("c3d"));
-  s.kinematics = resolve(dir, t.childText("kinematics"));
+  s.contact_area = xml::resolvePath(dir, t.childText("contact_area"));
+  s.c3d = xml::resolvePath(dir, t.childText("c3d"));
+  s.kinematics = xml::resolvePath(dir, t.childText("kinematics"));
   s.flexion_column = t.childText("flexion_column", s.flexion_column);
   s.flexion_source = t.childText("flexion_source", s.flexion_source);
   s.events = t.childText("events", s.events);
@@ -103,10 +98,10 @@ GapSetup readGapSetup(const std::string& path) {
   GapSetup s;
   s.setup_file = path;
   s.name = tool.nameAttr().empty() ? "gap" : tool.nameAttr();
-  s.results_directory = resolve(dir, tool.childText("results_directory", s.name + "_results"));
+  s.results_directory = xml::resolvePath(dir, tool.childText("results_directory", s.name + "_results"));
   if (xml::Node p = tool.child("plugins")) s.plugins = p.toWords();
   s.law = tool.childText("law", s.law);
-  s.workflow_results = resolve(dir, tool.childText("workflow_results"));
+  s.workflow_results = xml::resolvePath(dir, tool.childText("workflow_results"));
   if (xml::Node e = tool.child("effects")) {
     s.effects = e.toWords();
     if (s.effects.size() == 1 && s.effects[0] == "all") s.effects.clear();
