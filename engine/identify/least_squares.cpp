@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 
 #include "core/error.hpp"
 
@@ -60,6 +61,26 @@ class LsqTnlp : public Ipopt::TNLP {
     r_.assign(m_, 0.0);
     jac_.assign(static_cast<size_t>(m_) * n_, 0.0);
     best_x_ = x0;
+  }
+
+  // Stops a solve whose objective no longer moves (see kStallIterations) once its scaled dual
+  // infeasibility is small: Ipopt's own tests need the gradient below tol, which an
+  // ill-conditioned valley with a Gauss-Newton Hessian (e.g. a threshold change that mostly
+  // rescales the area, against the modulus) can take hundreds of cut-back steps to reach.
+  bool intermediate_callback(Ipopt::AlgorithmMode mode, Ipopt::Index iter, Ipopt::Number obj_value, Ipopt::Number,
+                             Ipopt::Number inf_du, Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    if (mode != Ipopt::RegularMode) return true;
+    if (obj_value < best_objective_ - kStallRelativeChange * std::max(1.0, std::abs(obj_value))) {
+      best_objective_ = obj_value;
+      best_iteration_ = iter;
+    }
+    if (iter - best_iteration_ >= kStallIterations && inf_du < kStallDualInfeasibility) {
+      stalled_ = true;
+      return false;
+    }
+    return true;
   }
 
   // Objective at the start point; also sets the objective scale.
@@ -175,8 +196,21 @@ class LsqTnlp : public Ipopt::TNLP {
     have_jac_ = need_jac;
     sse_ = 0;
     for (int i = 0; i < m_; ++i) sse_ += w_[i] * r_[i] * r_[i];
+    if (std::isfinite(sse_) && sse_ < best_sse_) {
+      best_sse_ = sse_;
+      best_x_.assign(x, x + n_);
+    }
     return std::isfinite(sse_);
   }
+
+  // Iterations without a relative objective decrease above kStallRelativeChange after which a solve
+  // whose scaled dual infeasibility is below kStallDualInfeasibility counts as converged.
+  static constexpr int kStallIterations = 25;
+  static constexpr double kStallRelativeChange = 1e-10;
+  static constexpr double kStallDualInfeasibility = 1e-2;
+  bool stalled_ = false;
+  double best_sse_ = std::numeric_limits<double>::infinity();
+  std::vector<double> best_x_;  // lowest objective evaluated: the answer of a stalled solve
 
   std::exception_ptr error_;
   std::vector<double> final_x_;
@@ -185,7 +219,9 @@ class LsqTnlp : public Ipopt::TNLP {
  private:
   LeastSquaresProblem& prob_;
   int n_, m_;
-  std::vector<double> x0_, scale_, lower_, upper_, w_, x_, cached_x_, r_, jac_, best_x_;
+  std::vector<double> x0_, scale_, lower_, upper_, w_, x_, cached_x_, r_, jac_;
+  double best_objective_ = std::numeric_limits<double>::infinity();
+  int best_iteration_ = 0;
   bool gauss_newton_ = true;
   bool have_jac_ = false;
   double sse_ = 0;
@@ -239,6 +275,10 @@ LeastSquaresResult solveLeastSquares(LeastSquaresProblem& problem, const std::ve
     if (o.warm_mu > 0) {
       app->Options()->SetStringValue("mu_strategy", "monotone");
       app->Options()->SetNumericValue("mu_init", o.warm_mu);
+      // Keep the warm start where it is: the default push (1 % of the scaled value, at least 0.01)
+      // moved a modulus sitting near its lower bound far enough to multiply the objective by 1000.
+      app->Options()->SetNumericValue("bound_push", 1e-8);
+      app->Options()->SetNumericValue("bound_frac", 1e-8);
     } else {
       app->Options()->SetStringValue("mu_strategy", "adaptive");
     }
@@ -250,10 +290,15 @@ LeastSquaresResult solveLeastSquares(LeastSquaresProblem& problem, const std::ve
     res.status_code = static_cast<int>(st);
     res.status = statusName(st);
     res.success = st == Ipopt::Solve_Succeeded || st == Ipopt::Solved_To_Acceptable_Level;
+    if (st == Ipopt::User_Requested_Stop && tnlp->stalled_) {
+      res.status = "Objective_Stalled";
+      res.success = true;
+    }
     if (Ipopt::IsValid(app->Statistics())) res.iterations = app->Statistics()->IterationCount();
   }
   if (tnlp->error_) std::rethrow_exception(tnlp->error_);
-  if (static_cast<int>(tnlp->final_x_.size()) == n) res.x = tnlp->final_x_;
+  if (tnlp->stalled_) res.x = tnlp->best_x_;  // the last iterate may be a watchdog trial point
+  else if (static_cast<int>(tnlp->final_x_.size()) == n) res.x = tnlp->final_x_;
   // Clip round-off outside the bounds so that callers can rely on them.
   for (int j = 0; j < n; ++j) {
     const double lo = o.lower.empty() ? -1e20 : o.lower[j], hi = o.upper.empty() ? 1e20 : o.upper[j];

@@ -46,8 +46,11 @@ struct LeastSquaresResult {
   double start_sse = 0;         ///< The same at the start point.
   int iterations = 0;
   int status_code = 0;          ///< Ipopt's ApplicationReturnStatus.
-  std::string status;           ///< Its name, e.g. "Solve_Succeeded".
-  bool success = false;         ///< Solved, or solved to an acceptable level.
+  std::string status;           ///< Its name, e.g. "Solve_Succeeded"; or "Objective_Stalled" (below).
+  /// Solved, solved to an acceptable level, or stalled: the objective has not decreased by more than
+  /// 1e-10 (relative) for 25 iterations while the scaled gradient is below 1e-2 -- converged in value
+  /// though Ipopt's gradient test is not met; x is then the best point evaluated.
+  bool success = false;
   std::vector<bool> at_lower;   ///< x_j within 1e-6 scale_j of its bound.
   std::vector<bool> at_upper;
 };

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <thread>
@@ -95,6 +96,64 @@ TEST(LeastSquares, WeightsSelectResiduals) {
   const LeastSquaresResult r = solveLeastSquares(p, {-1.2, 1.0}, o);
   EXPECT_NEAR(r.x[0], 1.0, 1e-7);
   EXPECT_LT(r.sse, 1e-14);
+}
+
+// r = |x|^0.6: f = |x|^1.2 has its minimum at 0, where its curvature is infinite. The Gauss-Newton
+// Hessian (p^2 / 2 |x|^(p - 2) for f = |x|^p) is too small there: each step lands at -2/3 x, so the
+// objective converges linearly, to 1e-10 in about 50 steps, while the scaled gradient 1.2 |x|^0.2
+// would need |x| < 1e-50 to reach tol 1e-10 -- hundreds of iterations past convergence.
+struct SlowPower : LeastSquaresProblem {
+  int getNumParameters() const override { return 1; }
+  int getNumResiduals() const override { return 1; }
+  void calcResiduals(const double* x, double* r, double* j) override {
+    const double a = std::abs(x[0]);
+    r[0] = std::pow(a, 0.6);
+    if (j) j[0] = a > 0 ? 0.6 * std::pow(a, -0.4) * (x[0] > 0 ? 1 : -1) : 0.0;
+  }
+};
+
+TEST(LeastSquares, AStalledObjectiveEndsTheSolve) {
+  SlowPower p;
+  const LeastSquaresResult r = solveLeastSquares(p, {1.0}, {});
+  EXPECT_TRUE(r.success) << r.status;
+  EXPECT_EQ(r.status, "Objective_Stalled");
+  EXPECT_LT(std::abs(r.x[0]), 1e-8);
+  EXPECT_LT(r.sse, 1e-10);
+  EXPECT_LT(r.iterations, 150);  // max_iterations is 200: it did not run out
+}
+
+// r = x - 1.2e-3 with x >= 1e-3: the optimum lies 2e-4 above the bound, well inside Ipopt's default
+// bound push (1e-2), which would move a warm start there 50 times its distance from the bound (and,
+// in a fit with a modulus near its floor, multiplied the objective by 1000 before the first step).
+struct NearBound : LeastSquaresProblem {
+  double farthest = 0;  // largest distance from 1.2e-3 of any point evaluated
+  int getNumParameters() const override { return 1; }
+  int getNumResiduals() const override { return 2; }
+  void calcResiduals(const double* x, double* r, double* j) override {
+    farthest = std::max(farthest, std::abs(x[0] - 1.2e-3));
+    r[0] = 1e3 * (x[0] - 1.2e-3);
+    r[1] = 1.0;  // a residual the parameter cannot change: the optimum's SSE is 1
+    if (j) j[0] = 1e3, j[1] = 0;
+  }
+};
+
+TEST(LeastSquares, AWarmStartStaysWhereItIs) {
+  NearBound p;
+  LeastSquaresOptions o;
+  o.lower = {1e-3};
+  o.upper = {1.0};
+  o.warm_mu = 1e-6;
+  const LeastSquaresResult r = solveLeastSquares(p, {1.2e-3}, o);
+  EXPECT_TRUE(r.success) << r.status;
+  EXPECT_NEAR(r.x[0], 1.2e-3, 1e-9);
+  EXPECT_LT(p.farthest, 1e-6);
+  // A cold start is pushed into the interior as usual (and still finds the optimum).
+  NearBound cold;
+  o.warm_mu = 0;
+  const LeastSquaresResult c = solveLeastSquares(cold, {1.2e-3}, o);
+  EXPECT_TRUE(c.success) << c.status;
+  EXPECT_NEAR(c.x[0], 1.2e-3, 1e-8);
+  EXPECT_GT(cold.farthest, 1e-3);
 }
 
 struct Throwing : Rosenbrock {
