@@ -26,7 +26,10 @@
 enum { P_E = 0, P_NU = 1, P_R = 2, N_PARAMS = 3 };
 
 static const kneesim_param params[N_PARAMS] = {
-    {"E", "Pa", 1e6, 1e12, 1e9, 1e9, 0,
+    /* Lower bound 0, not a material floor: areas from a 4 mm proximity threshold are about ten times
+     * the true contact, so identified moduli are MPa, and with a second force source in the law
+     * (an effect such as grf_load) the data may want less; a 1 MPa floor bound JW's fits. */
+    {"E", "Pa", 0.0, 1e12, 1e9, 1e9, 0,
      "Young's modulus of the insert (UHMWPE about 0.5-1.5 GPa; Dao & Pouletaut report 4.67 GPa)"},
     {"nu", "1", 0.0, 0.5, 0.45, 0.45, 0,
      "Poisson's ratio of the insert; not identifiable from force data (only K = E/(1-nu^2) is)"},
