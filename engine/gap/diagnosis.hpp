@@ -15,10 +15,11 @@
 //  2. Which: every effect of the catalogue is screened by a score (Lagrange multiplier) test at the
 //     current model's optimum (one Gauss-Newton step from the fitted model, residuals' serial
 //     correlation discounted); the top ones are fitted fully (Ipopt) and compared by withheld
-//     error (per-cycle log ratios of held-out SSE, Student t interval), dAIC/dBIC and the stability of
-//     their parameters across folds (jackknife interval). Forward selection adds the best effect
-//     while its withheld improvement is significant (Bonferroni over the effects fitted at that
-//     step), large enough and favoured by BIC. Pairs that improve alike with nearly the same
+//     error (reduction of the pooled held-out MSE with a ratio-estimator interval over cycles, and
+//     per-cycle log ratios of held-out SSE), dAIC/dBIC and the stability of their parameters across
+//     folds (jackknife interval). Forward selection adds the best effect while its withheld MSE
+//     reduction is significant (Bonferroni over the effects fitted at that step), large enough and
+//     favoured by BIC. Pairs that improve alike with nearly the same
 //     force change are reported as confusable, with what data would separate them. A sign-flip
 //     permutation test over cycles of the final fit's residuals then asks whether systematic
 //     structure remains; if it does the
@@ -147,8 +148,13 @@ struct CandidateFit {
   /// mean and Student t interval over cycles (scale-free, so cycles of large and small force count
   /// alike; partial cycles much shorter than a whole one are merged into their neighbour).
   MeanInterval log_ratio;
-  double one_sided_lower = 0;     ///< Lower bound of log_ratio's mean at the Bonferroni level of the step.
   double relative_improvement = 0;  ///< Reduction of the pooled held-out mean square error, relative.
+  /// relative_improvement with its interval over cycles (ratio estimator, delta method:
+  /// relativeReductionInterval), the statistic the step selects on.
+  MeanInterval reduction;
+  /// Lower bound of relative_improvement at the Bonferroni level of the step (one-sided Student t,
+  /// cycles - 1 dof): > 0 is the significance the selection asks of an effect.
+  double one_sided_lower = 0;
   double d_aic = 0, d_bic = 0;    ///< Against the current model, effective frames.
   std::vector<EffectParameter> parameters;
   bool accepted = false;

@@ -159,8 +159,9 @@ json toJson(const GapReport& r, const Anchors& a) {
       cands.push_back({{"effect", c.effect}, {"law", c.law}, {"step", c.step}, {"converged", c.converged},
                        {"rmse_in_sample_N", num(c.rmse_in_sample)}, {"rmse_heldout_N", num(c.rmse_heldout)},
                        {"heldout_log_sse_ratio", meanInterval(c.log_ratio)},
-                       {"one_sided_lower", num(c.one_sided_lower)},
-                       {"relative_mse_reduction", num(c.relative_improvement)}, {"d_aic", num(c.d_aic)},
+                       {"relative_mse_reduction", num(c.relative_improvement)},
+                       {"relative_mse_reduction_interval", meanInterval(c.reduction)},
+                       {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)}, {"d_aic", num(c.d_aic)},
                        {"d_bic", num(c.d_bic)}, {"parameters", ps}, {"accepted", c.accepted},
                        {"decision", c.decision}, {"notes", c.notes}});
     }
@@ -262,9 +263,11 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       }
       s << "\n";
     }
-    s << "Full fits (withheld error per cycle: mean log ratio of SSE against the current model, > 0 is better):\n\n"
-         "| step | effect | withheld RMSE | MSE reduction | log ratio [95 % CI] | dAIC | dBIC | parameters | decision "
-         "|\n|---:|---|---:|---:|---|---:|---:|---|---|\n";
+    s << "Full fits (withheld error against the current model: reduction of the pooled MSE with its one-sided lower "
+         "bound at the step's Bonferroni level, which decides significance; and the mean per-cycle log ratio of SSE, "
+         "> 0 is better):\n\n"
+         "| step | effect | withheld RMSE | MSE reduction (lower bound) | log ratio [95 % CI] | dAIC | dBIC | parameters | "
+         "decision |\n|---:|---|---:|---:|---|---:|---:|---|---|\n";
     for (const auto& c : d.candidates) {
       std::string ps;
       for (const auto& p : c.parameters)
@@ -272,7 +275,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
               fmt(p.ci.upper) + "] (folds: jackknife [" + fmt(p.ci_jackknife.lower) + ", " +
               fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
       s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
-        << pct(c.relative_improvement) << " | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
+        << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
         << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
         << ps << " | " << c.decision << " |\n";
     }

@@ -322,6 +322,33 @@ MeanInterval meanInterval(const std::vector<double>& v, double level) {
   return m;
 }
 
+MeanInterval relativeReductionInterval(const std::vector<double>& a, const std::vector<double>& b, double level) {
+  KNEESIM_CHECK(a.size() == b.size(), "relativeReductionInterval: paired totals of different lengths");
+  MeanInterval m;
+  m.n = static_cast<int>(a.size());
+  const double sa = std::accumulate(a.begin(), a.end(), 0.0), sb = std::accumulate(b.begin(), b.end(), 0.0);
+  if (m.n == 0 || !(sa > 0)) {
+    m.mean = m.lower = m.upper = m.sd = kNaN;
+    return m;
+  }
+  m.mean = 1 - sb / sa;
+  if (m.n < 2) {
+    m.lower = m.upper = m.sd = kNaN;
+    return m;
+  }
+  double ss = 0;
+  for (int u = 0; u < m.n; ++u) {
+    const double e = (a[u] - b[u]) - m.mean * a[u];
+    ss += e * e;
+  }
+  const double se = std::sqrt(m.n / (m.n - 1.0) * ss) / sa;
+  m.sd = se * std::sqrt(m.n);
+  const double h = studentQuantile(0.5 + level / 2, m.n - 1) * se;
+  m.lower = m.mean - h;
+  m.upper = m.mean + h;
+  return m;
+}
+
 double effectiveCount(const std::vector<double>& w) {
   double s = 0, s2 = 0;
   for (double x : w) s += x, s2 += x * x;

@@ -66,6 +66,12 @@ struct MeanInterval {
   int n = 0;
 };
 MeanInterval meanInterval(const std::vector<double>& v, double level = 0.95);
+/// Relative reduction R = 1 - sum(b) / sum(a) of paired per-unit totals (e.g. held-out SSEs of a
+/// reference model @p a and a candidate @p b over cycles), with a Student-t interval (n - 1 dof) on
+/// the delta-method standard error of the ratio estimator: se^2 = n / (n - 1) sum_u (d_u - R a_u)^2
+/// / (sum a)^2, d = a - b. sd is reported as se sqrt(n) so that se = sd / sqrt(n) as for a mean.
+/// NaN bounds when fewer than 2 units; NaN throughout when sum(a) is not positive.
+MeanInterval relativeReductionInterval(const std::vector<double>& a, const std::vector<double>& b, double level = 0.95);
 /// Weighted mean of @p v (weights @p w > 0) with a Student-t interval on the effective number of
 /// values (sum w)^2 / sum w^2; n is the number of values. NaN bounds when fewer than 2.
 MeanInterval weightedMeanInterval(const std::vector<double>& v, const std::vector<double>& w, double level = 0.95);

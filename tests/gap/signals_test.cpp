@@ -81,6 +81,28 @@ TEST(Signals, DistributionsAgainstTables) {
   EXPECT_DOUBLE_EQ(effectiveCount({1, 1, 2}), 16.0 / 6.0);
 }
 
+TEST(Signals, RelativeReductionOfPairedTotals) {
+  // b = 0.7 a exactly: R = 0.3 with no spread.
+  const MeanInterval exact = relativeReductionInterval({1, 2, 3, 4}, {0.7, 1.4, 2.1, 2.8});
+  EXPECT_NEAR(exact.mean, 0.3, 1e-12);
+  EXPECT_NEAR(exact.sd, 0.0, 1e-12);
+  EXPECT_NEAR(exact.lower, 0.3, 1e-12);
+  // By hand: a = (2, 4, 6), b = (1, 4, 3): R = 1 - 8/12 = 1/3; d = (1, 0, 3), d - R a = (1/3, -4/3,
+  // 1); se^2 = 3/2 (1/9 + 16/9 + 1) / 144 = 3/2 * 26/9 / 144; interval R -+ t(0.975, 2) se.
+  const MeanInterval m = relativeReductionInterval({2, 4, 6}, {1, 4, 3});
+  const double se = std::sqrt(1.5 * 26.0 / 9.0 / 144.0);
+  EXPECT_NEAR(m.mean, 1.0 / 3.0, 1e-12);
+  EXPECT_NEAR(m.sd, se * std::sqrt(3.0), 1e-12);
+  EXPECT_NEAR(m.upper - m.mean, 4.302653 * se, 1e-6);
+  EXPECT_EQ(m.n, 3);
+  // It weighs units by their totals, unlike a mean of per-unit log ratios: a loud unit that halves
+  // outweighs a quiet one that doubles.
+  const MeanInterval w = relativeReductionInterval({100, 1}, {50, 2});
+  EXPECT_NEAR(w.mean, 1 - 52.0 / 101.0, 1e-12);
+  EXPECT_TRUE(std::isnan(relativeReductionInterval({}, {}).mean));
+  EXPECT_TRUE(std::isnan(relativeReductionInterval({5}, {4}).lower));
+}
+
 TEST(Signals, CorrelationsDerivativesAndInterpolation) {
   EXPECT_NEAR(pearson({1, 2, 3, 4}, {2, 4, 6, 8.0}), 1.0, 1e-12);
   EXPECT_NEAR(pearson({1, 2, 3, 4}, {1, 3, 2, 4}), 0.8, 1e-12);
