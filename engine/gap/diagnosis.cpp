@@ -44,6 +44,7 @@ struct Model {
   Eigen::VectorXd params;
   std::vector<std::vector<double>> pred;  // held-out prediction per trial and frame (NaN elsewhere)
   std::vector<double> unit_sse;
+  std::vector<double> unit_wsse;  // prewhitened (Context::ar) held-out squared errors per unit
   std::vector<Eigen::VectorXd> fold_params;
   std::vector<std::vector<double>> fitted;  // in-sample force per trial and frame
   int cv_failures = 0;
@@ -53,6 +54,7 @@ struct Model {
     for (size_t u = 0; u < units.size(); ++u) s += unit_sse[u], n += units[u].frames.size();
     return n > 0 ? s / n : kNaN;
   }
+  double totalWsse() const { return std::accumulate(unit_wsse.begin(), unit_wsse.end(), 0.0); }
 };
 
 // Everything the analyses of one target share.
@@ -64,7 +66,41 @@ struct Context {
   std::vector<std::vector<int>> folds;
   const DiagnosisOptions* o = nullptr;
   double body_weight = 0;  // N
+  std::vector<double> ar;  // prewhitening filter phi_1..phi_p (empty: none)
 };
+
+// A unit's values as one run of consecutive frames (NaN where the unit skips a frame).
+std::vector<double> unitRun(const Unit& u, const std::vector<double>& v) {
+  if (u.frames.empty()) return {};
+  std::vector<double> run(u.frames.back() - u.frames.front() + 1, kNaN);
+  for (int i : u.frames) run[i - u.frames.front()] = v[i];
+  return run;
+}
+
+// The prewhitened held-out squared errors of each unit from m.pred.
+void updateWhitened(const Context& c, Model& m) {
+  m.unit_wsse.assign(c.units.size(), 0.0);
+  std::vector<double> r;
+  for (size_t u = 0; u < c.units.size(); ++u) {
+    const Unit& un = c.units[u];
+    if (c.ar.empty()) {
+      m.unit_wsse[u] = m.unit_sse[u];
+      continue;
+    }
+    r.assign(c.trials[un.trial].time.size(), kNaN);
+    for (int i : un.frames) r[i] = c.trials[un.trial].measured_force[i] - m.pred[un.trial][i];
+    m.unit_wsse[u] = whitenedSumOfSquares(c.ar, unitRun(un, r));
+  }
+}
+
+// The prewhitening filter of a target: an AR model of the baseline's in-sample residuals over the
+// units (DiagnosisOptions::prewhiten_order).
+std::vector<double> fitPrewhitening(const Context& c, const std::vector<std::vector<double>>& v, int order) {
+  if (order == 0) return {};
+  std::vector<std::vector<double>> runs;
+  for (const auto& u : c.units) runs.push_back(unitRun(u, v[u.trial]));
+  return fitAutoregression(runs, order);
+}
 
 std::vector<std::pair<double, double>> windowsOf(const Context& c, int trial, const std::vector<int>& unit_ids) {
   std::vector<std::pair<double, double>> w;
@@ -159,6 +195,7 @@ void fitAndValidate(const Context& c, Model& m) {
       }
     }
   }
+  updateWhitened(c, m);
 }
 
 // Lag-1 autocorrelation of per-frame values pooled over units (consecutive frames only).
@@ -366,6 +403,7 @@ CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, i
   cf.rmse_in_sample = out.fit.overall.rmse;
   cf.rmse_heldout = std::sqrt(out.cvMse(c.units));
   cf.log_ratio = meanInterval(unitLogRatios(current.unit_sse, out.unit_sse), c.o->level);
+  cf.whitened_improvement = 1 - out.totalWsse() / std::max(current.totalWsse(), 1e-300);
   cf.relative_improvement = 1 - out.cvMse(c.units) / current.cvMse(c.units);
   // The significance of what the step selects on (the pooled MSE): per-cycle log ratios weigh a
   // quiet cycle like a loud one, and with about a dozen cycles their spread hid reductions of 20-30 %.
@@ -797,6 +835,16 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
   fitAndValidate(c, base);
   base.fit = d.baseline;  // keep the user's report (with its intervals)
   d.baseline_rmse_heldout = std::sqrt(base.cvMse(c.units));
+  {
+    std::vector<std::vector<double>> res(c.trials.size());
+    for (size_t t = 0; t < c.trials.size(); ++t) {
+      res[t].resize(c.trials[t].time.size());
+      for (size_t i = 0; i < res[t].size(); ++i) res[t][i] = c.trials[t].measured_force[i] - base.fitted[t][i];
+    }
+    c.ar = fitPrewhitening(c, res, o.prewhiten_order);
+    d.prewhitening = c.ar;
+    updateWhitened(c, base);
+  }
 
   std::vector<std::vector<double>> gap(c.trials.size());
   for (size_t t = 0; t < c.trials.size(); ++t) {
@@ -849,6 +897,16 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     for (size_t k = 0; k < fits.size(); ++k)
       if (fits[k].converged && (best < 0 || fits[k].relative_improvement > fits[best].relative_improvement))
         best = static_cast<int>(k);
+    // Among the candidates whose withheld improvement is significant, the prewhitened errors
+    // decide: they weigh the fast differences between rivals, which the smooth gap does not hide,
+    // where raw squared errors are dominated by the slow ones, which it does.
+    bool by_whitened = false;
+    for (size_t k = 0; k < fits.size(); ++k)
+      if (best >= 0 && fits[k].converged && fits[k].one_sided_lower > 0 &&
+          (fits[best].one_sided_lower <= 0 || fits[k].whitened_improvement > fits[best].whitened_improvement)) {
+        by_whitened = by_whitened || static_cast<int>(k) != best;
+        best = static_cast<int>(k);
+      }
     auto separatedBy = [&](const std::string& a, const std::string& b, const std::string& evidence) {
       std::string sa, sb;
       for (const auto& e : catalogue) {
@@ -889,12 +947,19 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         if (!p.identified) why.push_back("its parameter '" + p.name + "' is not identifiable");
       accept = why.empty();
       f.accepted = accept;
-      f.decision = accept ? "selected: best withheld improvement (" + fmt(100 * f.relative_improvement, 3) +
-                                "% of the MSE), significant, dBIC " + fmt(f.d_bic, 3)
+      f.decision = accept ? std::string("selected: ") +
+                                (by_whitened ? "best prewhitened withheld improvement among the significant ones (" +
+                                                   fmt(100 * f.whitened_improvement, 3) + "%; MSE " +
+                                                   fmt(100 * f.relative_improvement, 3) + "%)"
+                                             : "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) +
+                                                   "% of the MSE)") +
+                                ", significant, dBIC " + fmt(f.d_bic, 3)
                           : "not selected: " + joinNames(why, "; ");
     }
     for (size_t k = 0; k < fits.size(); ++k)
-      if (static_cast<int>(k) != best) fits[k].decision = "not the best withheld improvement at step " + std::to_string(step);
+      if (static_cast<int>(k) != best)
+        fits[k].decision = std::string("not the best ") + (by_whitened ? "prewhitened " : "") +
+                           "withheld improvement at step " + std::to_string(step);
     if (accept) {
       // Rivals of the selected effect: effects whose force change, as far as the baseline leaves it
       // visible, nearly spans the same direction on these trials (canonical correlation of the

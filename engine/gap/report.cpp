@@ -161,11 +161,13 @@ json toJson(const GapReport& r, const Anchors& a) {
                        {"heldout_log_sse_ratio", meanInterval(c.log_ratio)},
                        {"relative_mse_reduction", num(c.relative_improvement)},
                        {"relative_mse_reduction_interval", meanInterval(c.reduction)},
-                       {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)}, {"d_aic", num(c.d_aic)},
+                       {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)},
+                       {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)}, {"d_aic", num(c.d_aic)},
                        {"d_bic", num(c.d_bic)}, {"parameters", ps}, {"accepted", c.accepted},
                        {"decision", c.decision}, {"notes", c.notes}});
     }
     t["candidates"] = cands;
+    t["prewhitening_ar"] = d.prewhitening;
     json conf = json::array();
     for (const auto& c : d.confusable)
       conf.push_back({{"a", c.a}, {"b", c.b}, {"signature_r", num(c.signature_r)},
@@ -264,10 +266,18 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       s << "\n";
     }
     s << "Full fits (withheld error against the current model: reduction of the pooled MSE with its one-sided lower "
-         "bound at the step's Bonferroni level, which decides significance; and the mean per-cycle log ratio of SSE, "
-         "> 0 is better):\n\n"
-         "| step | effect | withheld RMSE | MSE reduction (lower bound) | log ratio [95 % CI] | dAIC | dBIC | parameters | "
-         "decision |\n|---:|---|---:|---:|---|---:|---:|---|---|\n";
+         "bound at the step's Bonferroni level, which decides significance; the same reduction of the prewhitened "
+         "errors, which chooses among the significant ones; and the mean per-cycle log ratio of SSE, > 0 is "
+         "better).";
+    if (d.prewhitening.empty()) {
+      s << " No prewhitening.";
+    } else {
+      s << " Prewhitening filter: AR(" << d.prewhitening.size() << ") of the baseline's residuals, phi =";
+      for (double v : d.prewhitening) s << " " << fixed(v, 3);
+      s << ".";
+    }
+    s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened | log ratio [95 % CI] | dAIC | "
+         "dBIC | parameters | decision |\n|---:|---|---:|---:|---:|---|---:|---:|---|---|\n";
     for (const auto& c : d.candidates) {
       std::string ps;
       for (const auto& p : c.parameters)
@@ -275,7 +285,8 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
               fmt(p.ci.upper) + "] (folds: jackknife [" + fmt(p.ci_jackknife.lower) + ", " +
               fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
       s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
-        << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
+        << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << pct(c.whitened_improvement)
+        << " | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
         << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
         << ps << " | " << c.decision << " |\n";
     }

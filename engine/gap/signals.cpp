@@ -5,6 +5,8 @@
 #include <limits>
 #include <numeric>
 
+#include <Eigen/Dense>
+
 #include "core/error.hpp"
 
 namespace kneesim::gap {
@@ -320,6 +322,50 @@ MeanInterval meanInterval(const std::vector<double>& v, double level) {
   m.lower = m.mean - h;
   m.upper = m.mean + h;
   return m;
+}
+
+std::vector<double> fitAutoregression(const std::vector<std::vector<double>>& runs, int order) {
+  KNEESIM_CHECK(order == -1 || order > 0, "fitAutoregression: order must be -1 or positive");
+  const int lo = order > 0 ? order : 1, hi = order > 0 ? order : 10;
+  std::vector<double> best;
+  double best_bic = std::numeric_limits<double>::infinity();
+  for (int p = lo; p <= hi; ++p) {
+    int n = 0;
+    for (const auto& x : runs)
+      for (size_t t = p; t < x.size(); ++t) {
+        bool ok = std::isfinite(x[t]);
+        for (int k = 1; k <= p && ok; ++k) ok = std::isfinite(x[t - k]);
+        n += ok;
+      }
+    if (n < 10 * p + 20) break;
+    Eigen::MatrixXd a(n, p);
+    Eigen::VectorXd b(n);
+    int row = 0;
+    for (const auto& x : runs)
+      for (size_t t = p; t < x.size(); ++t) {
+        bool ok = std::isfinite(x[t]);
+        for (int k = 1; k <= p && ok; ++k) ok = std::isfinite(x[t - k]);
+        if (!ok) continue;
+        for (int k = 1; k <= p; ++k) a(row, k - 1) = x[t - k];
+        b[row++] = x[t];
+      }
+    const Eigen::VectorXd phi = a.colPivHouseholderQr().solve(b);
+    const double sse = (b - a * phi).squaredNorm();
+    const double bic = n * std::log(std::max(sse / n, 1e-300)) + p * std::log(static_cast<double>(n));
+    if (bic < best_bic) best_bic = bic, best.assign(phi.data(), phi.data() + p);
+  }
+  return best;
+}
+
+double whitenedSumOfSquares(const std::vector<double>& phi, const std::vector<double>& x) {
+  const size_t p = phi.size();
+  double s = 0;
+  for (size_t t = p; t < x.size(); ++t) {
+    double e = x[t];
+    for (size_t k = 1; k <= p && std::isfinite(e); ++k) e -= phi[k - 1] * x[t - k];
+    if (std::isfinite(e)) s += e * e;
+  }
+  return s;
 }
 
 MeanInterval relativeReductionInterval(const std::vector<double>& a, const std::vector<double>& b, double level) {

@@ -66,6 +66,14 @@ struct MeanInterval {
   int n = 0;
 };
 MeanInterval meanInterval(const std::vector<double>& v, double level = 0.95);
+/// Least-squares autoregression x_t = sum_k phi_k x_{t-k} + e_t over @p runs of consecutive samples
+/// (NaN samples break a run; only samples with p finite predecessors in their run count). @p order > 0
+/// fixes p; -1 chooses p in 1..10 by BIC (n ln(SSE/n) + p ln n). Returns phi_1..phi_p; empty when
+/// there are fewer than 10 p + 20 usable samples.
+std::vector<double> fitAutoregression(const std::vector<std::vector<double>>& runs, int order = -1);
+/// Sum of squared innovations e_t = x_t - sum_k phi_k x_{t-k} of one run @p x over the samples with
+/// p finite predecessors (the first p samples, and any after a NaN, are left out).
+double whitenedSumOfSquares(const std::vector<double>& phi, const std::vector<double>& x);
 /// Relative reduction R = 1 - sum(b) / sum(a) of paired per-unit totals (e.g. held-out SSEs of a
 /// reference model @p a and a candidate @p b over cycles), with a Student-t interval (n - 1 dof) on
 /// the delta-method standard error of the ratio estimator: se^2 = n / (n - 1) sum_u (d_u - R a_u)^2

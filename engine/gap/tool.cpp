@@ -92,6 +92,7 @@ GapSetup readGapSetup(const std::string& path) {
       "results_directory", "plugins",     "law",          "free_parameters", "assumed_values", "parameter_values",
       "effects",           "targets",     "body_mass",    "cv_folds",        "screen_top",     "max_effects",
       "alpha",             "structure_alpha", "min_relative_improvement", "confidence_level", "bootstrap_samples",
+      "prewhiten_order",
       "plots",             "emg_flexors", "emg_extensors", "trials", "workflow_results"};
   for (const xml::Node& c : tool.children())
     if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known) + ")");
@@ -131,6 +132,8 @@ GapSetup readGapSetup(const std::string& path) {
   o.cv_folds = integer("cv_folds", 0, 0);
   o.screen_top = integer("screen_top", o.screen_top, 1);
   o.max_effects = integer("max_effects", o.max_effects, 0);
+  o.prewhiten_order = integer("prewhiten_order", o.prewhiten_order, -1);
+  if (o.prewhiten_order > 10) tool.child("prewhiten_order").fail("expected -1 (by BIC), 0 (none) or an order up to 10, got " + tool.child("prewhiten_order").text());
   o.alpha = fraction("alpha", o.alpha);
   o.structure_alpha = fraction("structure_alpha", o.structure_alpha);
   o.min_relative_improvement = fraction("min_relative_improvement", o.min_relative_improvement);

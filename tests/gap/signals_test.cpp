@@ -81,6 +81,44 @@ TEST(Signals, DistributionsAgainstTables) {
   EXPECT_DOUBLE_EQ(effectiveCount({1, 1, 2}), 16.0 / 6.0);
 }
 
+TEST(Signals, AutoregressionRecoversAnArProcessAndWhitensIt) {
+  // x_t = 1.6 x_{t-1} - 0.8 x_{t-2} + e_t, e ~ N(0, 1): three runs of 2000, one broken by a NaN.
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<std::vector<double>> runs(3, std::vector<double>(2000, 0.0));
+  double e2 = 0;
+  int ne = 0;
+  for (auto& x : runs)
+    for (size_t t = 2; t < x.size(); ++t) {
+      const double e = g(rng);
+      x[t] = 1.6 * x[t - 1] - 0.8 * x[t - 2] + e;
+      if (t >= 4) e2 += e * e, ++ne;
+    }
+  runs[1][1000] = std::nan("");
+  const std::vector<double> phi = fitAutoregression(runs);  // order by BIC
+  ASSERT_GE(phi.size(), 2u);
+  EXPECT_NEAR(phi[0], 1.6, 0.05);
+  EXPECT_NEAR(phi[1], -0.8, 0.05);
+  for (size_t k = 2; k < phi.size(); ++k) EXPECT_NEAR(phi[k], 0.0, 0.05);
+  const std::vector<double> fixed2 = fitAutoregression(runs, 2);
+  ASSERT_EQ(fixed2.size(), 2u);
+  // Whitened with the true filter, the innovations come back: their sum of squares, run 0 (from t = 2).
+  double s_true = 0;
+  for (size_t t = 2; t < runs[0].size(); ++t) {
+    const double e = runs[0][t] - 1.6 * runs[0][t - 1] + 0.8 * runs[0][t - 2];
+    s_true += e * e;
+  }
+  EXPECT_NEAR(whitenedSumOfSquares({1.6, -0.8}, runs[0]), s_true, 1e-9 * s_true);
+  EXPECT_NEAR(whitenedSumOfSquares(fixed2, runs[0]) / 1998, 1.0, 0.1);  // unit innovation variance
+  // The NaN removes itself and the two samples that need it as history.
+  const double broken = whitenedSumOfSquares({1.6, -0.8}, runs[1]);
+  std::vector<double> head(runs[1].begin(), runs[1].begin() + 1000), tail(runs[1].begin() + 1001, runs[1].end());
+  EXPECT_NEAR(broken, whitenedSumOfSquares({1.6, -0.8}, head) + whitenedSumOfSquares({1.6, -0.8}, tail), 1e-9 * broken);
+  // No filter: the plain sum of squares; too few samples: no filter.
+  EXPECT_NEAR(whitenedSumOfSquares({}, {1, 2, 3}), 14.0, 1e-12);
+  EXPECT_TRUE(fitAutoregression({{1, 2, 3, 4, 5}}).empty());
+}
+
 TEST(Signals, RelativeReductionOfPairedTotals) {
   // b = 0.7 a exactly: R = 0.3 with no spread.
   const MeanInterval exact = relativeReductionInterval({1, 2, 3, 4}, {0.7, 1.4, 2.1, 2.8});

@@ -77,6 +77,9 @@ TEST(GapTool, SetupErrorsNameTheFileAndElement) {
   expectError("<GapTool><lawz>hertz</lawz><trials/></GapTool>", "unknown element <lawz> in GapTool");
   expectError("<GapTool><trials/></GapTool>", "expected at least one <Trial>, got none");
   expectError("<GapTool><alpha>2</alpha><trials/></GapTool>", "expected a value in (0, 1), got 2");
+  expectError("<GapTool><prewhiten_order>12</prewhiten_order><trials/></GapTool>",
+              "expected -1 (by BIC), 0 (none) or an order up to 10, got 12");
+  expectError("<GapTool><prewhiten_order>-2</prewhiten_order><trials/></GapTool>", "expected an integer >= -1, got -2");
   expectError("<GapTool><assumed_values>nu</assumed_values><trials/></GapTool>", "expected pairs of a parameter name");
   expectError("<GapTool><trials><Trial name='a'><knee_forces>x.csv</knee_forces></Trial></trials></GapTool>",
               "missing <contact_area> (the contact-area tool's .sto for this trial) and no <workflow_results>");
@@ -133,9 +136,16 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   EXPECT_FALSE(j["targets"][0]["verdict"].get<std::string>().empty());
   EXPECT_EQ(j["anchors"]["jw_body_mass_kg"].get<double>(), 66.7);
   EXPECT_EQ(j["targets"][0]["baseline"]["parameters"][1]["status"].get<std::string>(), "fixed: not identifiable");
+  // The prewhitening filter (AR order by BIC on the baseline's residuals) and each candidate's
+  // prewhitened reduction are reported.
+  EXPECT_GE(j["targets"][0]["prewhitening_ar"].size(), 1u);
+  EXPECT_LE(j["targets"][0]["prewhitening_ar"].size(), 10u);
+  ASSERT_GE(j["targets"][0]["candidates"].size(), 1u);
+  EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction"));
   const std::string md = readFileText(dir + "/out/gap_report.md");
   EXPECT_THAT(md, ::testing::Not(HasSubstr("INTERIM")));
   EXPECT_THAT(md, HasSubstr("winners' RMS errors 229-326 N per compartment"));
+  EXPECT_THAT(md, HasSubstr("Prewhitening filter: AR("));
   EXPECT_EQ(r.report.targets.size(), 2u);
 }
 
