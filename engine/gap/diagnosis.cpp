@@ -69,11 +69,19 @@ struct Context {
   std::vector<double> ar;  // prewhitening filter phi_1..phi_p (empty: none)
 };
 
-// A unit's values as one run of consecutive frames (NaN where the unit skips a frame).
-std::vector<double> unitRun(const Unit& u, const std::vector<double>& v) {
+// A unit's values as one run of consecutive frames (NaN where the unit skips a frame), low-passed
+// at kComparisonBandwidth when the run is complete: a measured force does not carry the
+// frame-to-frame jitter the kinematics put into a model's areas, and whitening would weigh it most.
+constexpr double kComparisonBandwidth = 6;  // Hz
+std::vector<double> unitRun(const Context& c, const Unit& u, const std::vector<double>& v) {
   if (u.frames.empty()) return {};
   std::vector<double> run(u.frames.back() - u.frames.front() + 1, kNaN);
   for (int i : u.frames) run[i - u.frames.front()] = v[i];
+  const auto& time = c.trials[u.trial].time;
+  const double rate = time.size() > 1 ? (time.size() - 1) / (time.back() - time.front()) : 0.0;
+  if (run.size() > 12 && rate > 2 * kComparisonBandwidth &&
+      std::all_of(run.begin(), run.end(), [](double x) { return std::isfinite(x); }))
+    run = lowPass(run, rate, kComparisonBandwidth);
   return run;
 }
 
@@ -89,16 +97,61 @@ void updateWhitened(const Context& c, Model& m) {
     }
     r.assign(c.trials[un.trial].time.size(), kNaN);
     for (int i : un.frames) r[i] = c.trials[un.trial].measured_force[i] - m.pred[un.trial][i];
-    m.unit_wsse[u] = whitenedSumOfSquares(c.ar, unitRun(un, r));
+    m.unit_wsse[u] = whitenedSumOfSquares(c.ar, unitRun(c, un, r));
   }
 }
 
+// Per-frame values minus their activity's mean over the normalised cycle (bin means over all units
+// of the activity, interpolated linearly between bin centres); NaN where fewer than two units cover
+// a bin or the frame has no phase. What repeats from cycle to cycle is structure an effect may
+// explain; what differs between cycles is the noise (the report's repeatability band).
+std::vector<std::vector<double>> cycleDeviations(const Context& c, const std::vector<std::vector<double>>& v, int bins) {
+  struct Curve {
+    std::vector<double> sum, frames;
+    std::vector<int> units;
+  };
+  std::map<std::string, Curve> curves;
+  auto binOf = [&](double phase) { return std::clamp(static_cast<int>(phase * bins), 0, bins - 1); };
+  auto usable = [&](const Unit& u, int i) {
+    return std::isfinite(v[u.trial][i]) && std::isfinite((*c.gap_trials)[u.trial].cycle_phase[i]);
+  };
+  for (const auto& u : c.units) {
+    Curve& cv = curves[u.activity];
+    cv.sum.resize(bins, 0.0);
+    cv.frames.resize(bins, 0.0);
+    cv.units.resize(bins, 0);
+    std::vector<bool> seen(bins, false);
+    for (int i : u.frames) {
+      if (!usable(u, i)) continue;
+      const int b = binOf((*c.gap_trials)[u.trial].cycle_phase[i]);
+      cv.sum[b] += v[u.trial][i];
+      cv.frames[b] += 1;
+      seen[b] = true;
+    }
+    for (int b = 0; b < bins; ++b) cv.units[b] += seen[b];
+  }
+  std::vector<std::vector<double>> out(v.size());
+  for (size_t t = 0; t < v.size(); ++t) out[t].assign(v[t].size(), kNaN);
+  for (const auto& u : c.units) {
+    const Curve& cv = curves.at(u.activity);
+    auto meanAt = [&](int b) { return cv.units[b] >= 2 ? cv.sum[b] / cv.frames[b] : kNaN; };
+    for (int i : u.frames) {
+      if (!usable(u, i)) continue;
+      const double x = (*c.gap_trials)[u.trial].cycle_phase[i] * bins - 0.5;  // in bin-centre units
+      const int b0 = std::clamp(static_cast<int>(std::floor(x)), 0, bins - 1), b1 = std::min(bins - 1, b0 + 1);
+      const double w = std::clamp(x - b0, 0.0, 1.0);
+      out[u.trial][i] = v[u.trial][i] - ((1 - w) * meanAt(b0) + w * meanAt(b1));
+    }
+  }
+  return out;
+}
+
 // The prewhitening filter of a target: an AR model of the baseline's in-sample residuals over the
-// units (DiagnosisOptions::prewhiten_order).
+// units (DiagnosisOptions::prewhiten_order), once their cycle-locked mean is removed (cycleDeviations).
 std::vector<double> fitPrewhitening(const Context& c, const std::vector<std::vector<double>>& v, int order) {
   if (order == 0) return {};
   std::vector<std::vector<double>> runs;
-  for (const auto& u : c.units) runs.push_back(unitRun(u, v[u.trial]));
+  for (const auto& u : c.units) runs.push_back(unitRun(c, u, v[u.trial]));
   return fitAutoregression(runs, order);
 }
 
@@ -841,7 +894,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       res[t].resize(c.trials[t].time.size());
       for (size_t i = 0; i < res[t].size(); ++i) res[t][i] = c.trials[t].measured_force[i] - base.fitted[t][i];
     }
-    c.ar = fitPrewhitening(c, res, o.prewhiten_order);
+    c.ar = fitPrewhitening(c, cycleDeviations(c, res, std::max(10, o.bins)), o.prewhiten_order);
     d.prewhitening = c.ar;
     updateWhitened(c, base);
   }

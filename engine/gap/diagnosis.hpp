@@ -60,11 +60,14 @@ struct DiagnosisOptions {
   /// errors cannot be told apart, reported confusable with it.
   double confusable_correlation = 0.8;
   /// Order of the autoregressive filter that prewhitens held-out residuals (-1: chosen by BIC up
-  /// to 10 on the baseline's in-sample residuals; 0: no prewhitening). The measured force's gap is
-  /// smooth (between-cycle scatter), so raw squared errors weigh the slow differences between rival
-  /// effects, which the noise hides, and barely the fast ones, which it does not. Significance stays
-  /// on the raw errors; among the candidates of a step that are significant, the larger prewhitened
-  /// withheld improvement is selected. Reported errors stay in newtons.
+  /// to 10; 0: no prewhitening). The filter is fitted to the noise, not the gap: the baseline's
+  /// in-sample residuals minus their activity's mean over the normalised cycle. The measured force's
+  /// gap is smooth (between-cycle scatter), so raw squared errors weigh the slow differences between
+  /// rival effects, which the noise hides, and barely the fast ones, which it does not. Residuals are
+  /// compared up to 6 Hz (a measured force does not carry the frame-to-frame jitter the kinematics
+  /// put into a model's areas, which whitening would otherwise weigh most). Significance stays on
+  /// the raw errors; among the significant candidates of a step, the larger prewhitened withheld
+  /// improvement is selected. Reported errors stay in newtons.
   int prewhiten_order = -1;
   double structure_alpha = 0.01;  ///< Level of the remaining-structure test.
   int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
@@ -245,7 +248,7 @@ struct TargetDiagnosis {
   std::vector<ShrinkageRow> shrinkage;
   std::vector<std::string> untestable;  ///< "effect: reason".
   /// Coefficients phi_1..phi_p of the prewhitening filter e_t - sum phi_k e_{t-k} estimated on the
-  /// baseline's in-sample residuals (empty: none).
+  /// baseline's in-sample residuals less their mean over the cycle, up to 6 Hz (empty: none).
   std::vector<double> prewhitening;
 };
 

@@ -272,7 +272,8 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
     if (d.prewhitening.empty()) {
       s << " No prewhitening.";
     } else {
-      s << " Prewhitening filter: AR(" << d.prewhitening.size() << ") of the baseline's residuals, phi =";
+      s << " Prewhitening filter: AR(" << d.prewhitening.size()
+        << ") of the baseline's residuals less their mean over the cycle, up to 6 Hz, phi =";
       for (double v : d.prewhitening) s << " " << fixed(v, 3);
       s << ".";
     }
