@@ -1011,8 +1011,12 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     }
     for (size_t k = 0; k < fits.size(); ++k)
       if (static_cast<int>(k) != best)
-        fits[k].decision = std::string("not the best ") + (by_whitened ? "prewhitened " : "") +
-                           "withheld improvement at step " + std::to_string(step);
+        fits[k].decision =
+            by_whitened && !(fits[k].one_sided_lower > 0)
+                ? "not significant at step " + std::to_string(step) + " (MSE reduction lower bound " +
+                      fmt(100 * fits[k].one_sided_lower, 3) + " %)"
+                : std::string("not the best ") + (by_whitened ? "prewhitened " : "") + "withheld improvement at step " +
+                      std::to_string(step);
     if (accept) {
       // Rivals of the selected effect: effects whose force change, as far as the baseline leaves it
       // visible, nearly spans the same direction on these trials (canonical correlation of the
