@@ -36,6 +36,20 @@ bool parseBool(std::string_view s, const SourceLocation& where);
 /// "1.5e+06", "nan"): for messages and reports.
 std::string formatSignificant(double v, int digits);
 
+/// The elements of @p parts (strings or string views, in iteration order) separated by @p sep:
+/// join({"a", "b"}, ", ") is "a, b"; empty for no elements.
+template <class Range>
+std::string join(const Range& parts, std::string_view sep) {
+  std::string s;
+  bool first = true;
+  for (const auto& x : parts) {
+    if (!first) s += sep;
+    s += x;
+    first = false;
+  }
+  return s;
+}
+
 /// Reads a whole file into a string; throws InputError naming the file if it cannot be read.
 std::string readFileText(const std::string& path);
 

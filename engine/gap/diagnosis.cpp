@@ -864,11 +864,6 @@ ShrinkageRow shrinkRow(const Context& c, const std::string& scheme, const std::s
   return r;
 }
 
-std::string joinNames(const std::vector<std::string>& v, const std::string& sep) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
-  return s;
-}
 
 TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue, const std::string& target) {
   const DiagnosisOptions& o = *c.o;
@@ -1007,7 +1002,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
                                              : "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) +
                                                    "% of the MSE)") +
                                 ", significant, dBIC " + fmt(f.d_bic, 3)
-                          : "not selected: " + joinNames(why, "; ");
+                          : "not selected: " + join(why, "; ");
     }
     for (size_t k = 0; k < fits.size(); ++k)
       if (static_cast<int>(k) != best)
@@ -1071,7 +1066,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
 
   // ---- remaining structure and verdict
   d.structure = structureTest(c, current);
-  const std::string sel = joinNames(chosen, " + ");
+  const std::string sel = join(chosen, " + ");
   const std::string pstr = std::isfinite(d.structure.p_value) ? fmt(d.structure.p_value, 3) : "n/a";
   const std::string evidence =
       "sign-flip p = " + pstr + "; systematic gap " + fmt(d.structure.systematic_gap, 3) + " N against a repeatability band of " +
@@ -1099,7 +1094,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
                      evidence + ").";
   }
   if (!d.untestable.empty() && d.structure.significant)
-    d.verdict_text += " Not testable on these inputs: " + joinNames(d.untestable, "; ") + ".";
+    d.verdict_text += " Not testable on these inputs: " + join(d.untestable, "; ") + ".";
   if (!std::isfinite(d.structure.p_value)) d.verdict_text += " (The sign-flip test needs six cycles: " + d.structure.note + ".)";
 
   // ---- series for the plots
@@ -1196,7 +1191,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         }
         if (n == 0) continue;
         d.shrinkage.push_back(shrinkRow(c, "leave one activity out", ph < 0 ? act : act + ": " + phases[ph].name,
-                                        joinNames(others, " + "), sb, sf, n, rng));
+                                        join(others, " + "), sb, sf, n, rng));
       }
     }
   }

@@ -22,12 +22,6 @@ namespace kneesim::gap {
 
 namespace {
 
-std::string joinNotes(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : "; ") + x;
-  return s;
-}
-
 std::vector<double> smoothNoise(int n, double rate, double tau, std::mt19937_64& rng) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<double> w(n);
@@ -505,7 +499,7 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
           line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
                   formatSignificant(100 * cf.one_sided_lower, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
-                  (cf.converged ? "" : ", not converged: " + joinNotes(cf.notes)) + "]";
+                  (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }
     out.trace.push_back("verdict: " + d.verdict);

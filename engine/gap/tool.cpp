@@ -31,18 +31,12 @@ std::string workflowAreaFile(const std::string& dir, const std::string& name) {
   return (fs::path(dir) / name / (name + "_contact_area.sto")).string();
 }
 
-std::string join(const std::set<std::string>& s) {
-  std::string o;
-  for (const auto& x : s) o += (o.empty() ? "" : ", ") + x;
-  return o;
-}
-
 TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   static const std::set<std::string> known = {"knee_forces", "contact_area",   "c3d",        "kinematics",
                                               "flexion_column", "flexion_source", "events", "event_times",
                                               "time_range",  "gon_calibration", "grf_from_knee_forces"};
   for (const xml::Node& c : t.children())
-    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known) + ")");
+    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known, ", ") + ")");
   TrialSource s;
   s.where = t.where();
   s.name = t.nameAttr();
@@ -95,7 +89,7 @@ GapSetup readGapSetup(const std::string& path) {
       "prewhiten_order",
       "plots",             "emg_flexors", "emg_extensors", "trials", "workflow_results"};
   for (const xml::Node& c : tool.children())
-    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known) + ")");
+    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known, ", ") + ")");
   GapSetup s;
   s.setup_file = path;
   s.name = tool.nameAttr().empty() ? "gap" : tool.nameAttr();
@@ -195,9 +189,8 @@ GapRunResult runGap(const GapSetup& s, const std::function<void(const std::strin
   for (const auto& g : trials)
     for (const auto& n : g.notes) res.report.notes.push_back(g.trial.name + ": " + n);
   if (!res.dead_emg.empty()) {
-    std::string d;
-    for (const auto& x : res.dead_emg) d += (d.empty() ? "" : ", ") + x;
-    res.report.notes.push_back("EMG channels dropped as dead (peak-to-peak below 0.1 V in some trial): " + d);
+    res.report.notes.push_back("EMG channels dropped as dead (peak-to-peak below 0.1 V in some trial): " +
+                               join(res.dead_emg, ", "));
   }
   res.directory = s.results_directory;
   say("writing the report into " + res.directory);

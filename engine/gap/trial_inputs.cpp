@@ -514,10 +514,7 @@ std::vector<std::string> normalizeEmg(std::vector<GapTrial>& trials, const std::
     std::vector<double> cc(fl.size());
     for (size_t i = 0; i < cc.size(); ++i) cc[i] = std::min(fl[i], ex[i]);
     ch["EMG:cocontraction"] = cc;
-    std::string fs, es;
-    for (const auto& s : uf) fs += (fs.empty() ? "" : ", ") + s;
-    for (const auto& s : ue) es += (es.empty() ? "" : ", ") + s;
-    g.notes.push_back("EMG:cocontraction = min(mean of " + fs + "; mean of " + es +
+    g.notes.push_back("EMG:cocontraction = min(mean of " + join(uf, ", ") + "; mean of " + join(ue, ", ") +
                       "), envelopes (6 Hz) normalised to their peak over all trials");
   }
   return std::vector<std::string>(dead.begin(), dead.end());

@@ -3,17 +3,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/strings.hpp"
 #include "plugin/registry.hpp"
 
 namespace kneesim::identify {
 
 namespace {
 
-std::string joinNames(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& n : v) s += (s.empty() ? "" : ", ") + n;
-  return s.empty() ? "none" : s;
-}
+std::string joinNames(const std::vector<std::string>& v) { return v.empty() ? "none" : join(v, ", "); }
 
 }  // namespace
 

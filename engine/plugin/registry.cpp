@@ -283,9 +283,7 @@ const kneesim_distance_provider* Registry::findDistanceProvider(const std::strin
 
 namespace {
 std::string joinNames(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& n : v) s += (s.empty() ? "" : ", ") + n;
-  return s.empty() ? "none; is the plugin listed in the setup file?" : s;
+  return v.empty() ? "none; is the plugin listed in the setup file?" : join(v, ", ");
 }
 }  // namespace
 

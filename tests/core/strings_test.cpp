@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <cmath>
 #include <limits>
 
@@ -54,6 +56,14 @@ TEST(Strings, ParseBool) {
   EXPECT_TRUE(parseBool(" TRUE ", {}));
   EXPECT_FALSE(parseBool("false", {}));
   EXPECT_THROW(parseBool("yes", {}), InputError);
+}
+
+TEST(Strings, JoinSeparatesElementsInOrder) {
+  EXPECT_EQ(join(std::vector<std::string>{"a", "b", "c"}, ", "), "a, b, c");
+  EXPECT_EQ(join(std::set<std::string>{"z", "a"}, "; "), "a; z");
+  EXPECT_EQ(join(std::vector<std::string_view>{"x"}, " + "), "x");
+  EXPECT_EQ(join(std::vector<std::string>{}, ", "), "");
+  EXPECT_EQ(join(std::vector<std::string>{"", "b"}, ","), ",b");  // an empty first element keeps its place
 }
 
 }  // namespace
