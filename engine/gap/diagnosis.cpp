@@ -452,7 +452,8 @@ CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, i
   cf.converged = out.fit.solver.success && out.cv_failures == 0;
   if (!out.fit.solver.success) cf.notes.push_back("the full fit did not converge: " + out.fit.solver.status);
   if (out.cv_failures > 0)
-    cf.notes.push_back(std::to_string(out.cv_failures) + " fold fit(s) did not converge (" + out.cv_failure_status + ")");
+    cf.notes.push_back(std::to_string(out.cv_failures) + " fold fit(s) did not converge (" + out.cv_failure_status +
+                       ")");
   cf.rmse_in_sample = out.fit.overall.rmse;
   cf.rmse_heldout = std::sqrt(out.cvMse(c.units));
   cf.log_ratio = meanInterval(unitLogRatios(current.unit_sse, out.unit_sse), c.o->level);
@@ -985,8 +986,8 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       CandidateFit& f = fits[best];
       std::vector<std::string> why;
       if (!(f.one_sided_lower > 0))
-        why.push_back("its withheld improvement is not significant (MSE reduction " + fmt(100 * f.relative_improvement, 3) +
-                      " %, one-sided lower bound " + fmt(100 * f.one_sided_lower, 3) + " % at level " +
+        why.push_back("its withheld improvement is not significant (MSE reduction " +
+                      fmt(100 * f.relative_improvement, 3) + " %, one-sided lower bound " + fmt(100 * f.one_sided_lower, 3) + " % at level " +
                       fmt(1 - o.alpha / fits.size(), 3) + ")");
       if (f.relative_improvement < o.min_relative_improvement)
         why.push_back("it removes only " + fmt(100 * f.relative_improvement, 2) + " % of the withheld mean square error");

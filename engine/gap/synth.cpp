@@ -498,7 +498,8 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
         if (cf.step == static_cast<int>(step) + 1)
           line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
-                  formatSignificant(100 * cf.one_sided_lower, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
+                  formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
+                  formatSignificant(100 * cf.whitened_improvement, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }

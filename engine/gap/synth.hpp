@@ -133,8 +133,9 @@ struct BlindOutcome {
   bool covered = false, covered_jackknife = false;
   bool has_estimate = false;
   /// How the answer came about, one line per selection step: the screening order and, for each
-  /// effect fitted fully, its withheld MSE reduction (%), one-sided lower bound of the per-cycle log
-  /// SSE ratio and dBIC ("*" marks the one selected); then the final verdict.
+  /// effect fitted fully, its withheld MSE reduction (%), that reduction's one-sided lower bound
+  /// (significance), its prewhitened reduction (the choice among significant ones) and dBIC ("*"
+  /// marks the one selected); then the final verdict.
   std::vector<std::string> trace;
 };
 
@@ -200,7 +201,7 @@ struct BlindSuiteOptions {
 };
 
 /// The blind suite's standard settings around a baseline identification @p fit: @p seeds seeds,
-/// three replicates per source, noise 100 N, 5-fold cross-validation, top 4 screened (the GapTool default), at most 2
+/// three replicates per source, noise 100 N, 5-fold cross-validation, top 4 screened (as GapTool), at most 2
 /// effects, no where-analysis and no leave-one-activity-out (not needed for the verdict), baseline
 /// intervals off. `kneesim synth --blind-suite` and tests/gap/blind_suite_test.cpp both use it.
 BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, int seeds = 20);

@@ -36,7 +36,8 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
                                               "flexion_column", "flexion_source", "events", "event_times",
                                               "time_range",  "gon_calibration", "grf_from_knee_forces"};
   for (const xml::Node& c : t.children())
-    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known, ", ") + ")");
+    if (!known.count(c.name()))
+      c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known, ", ") + ")");
   TrialSource s;
   s.where = t.where();
   s.name = t.nameAttr();
@@ -89,7 +90,8 @@ GapSetup readGapSetup(const std::string& path) {
       "prewhiten_order",
       "plots",             "emg_flexors", "emg_extensors", "trials", "workflow_results"};
   for (const xml::Node& c : tool.children())
-    if (!known.count(c.name())) c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known, ", ") + ")");
+    if (!known.count(c.name()))
+      c.fail("unknown element <" + c.name() + "> in GapTool (expected one of " + join(known, ", ") + ")");
   GapSetup s;
   s.setup_file = path;
   s.name = tool.nameAttr().empty() ? "gap" : tool.nameAttr();
@@ -127,7 +129,9 @@ GapSetup readGapSetup(const std::string& path) {
   o.screen_top = integer("screen_top", o.screen_top, 1);
   o.max_effects = integer("max_effects", o.max_effects, 0);
   o.prewhiten_order = integer("prewhiten_order", o.prewhiten_order, -1);
-  if (o.prewhiten_order > 10) tool.child("prewhiten_order").fail("expected -1 (by BIC), 0 (none) or an order up to 10, got " + tool.child("prewhiten_order").text());
+  if (o.prewhiten_order > 10)
+    tool.child("prewhiten_order")
+        .fail("expected -1 (by BIC), 0 (none) or an order up to 10, got " + tool.child("prewhiten_order").text());
   o.alpha = fraction("alpha", o.alpha);
   o.structure_alpha = fraction("structure_alpha", o.structure_alpha);
   o.min_relative_improvement = fraction("min_relative_improvement", o.min_relative_improvement);

@@ -167,7 +167,8 @@ void runSynth(const GapCommandState& st, bool quiet) {
     const gap::BlindSuiteResult res = gap::runBlindSuite(law, catalogue, sources, bo);
     if (st.details)
       for (const auto& out : res.outcomes) {
-        std::cout << out.case_name << " seed " << out.seed << ": " << out.answer << (out.correct ? " (right)" : " (wrong)") << "\n";
+        std::cout << out.case_name << " seed " << out.seed << ": " << out.answer
+                  << (out.correct ? " (right)" : " (wrong)") << "\n";
         for (const auto& line : out.trace) std::cout << "  " << line << "\n";
       }
     std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds
