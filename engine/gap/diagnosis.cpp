@@ -1029,9 +1029,10 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         const double rho = canonicalCorrelation(visible[sel], visible[sc.effect]);
         if (rho < o.confusable_correlation) continue;
         const Model* rival = nullptr;
+        double rival_reduction = 0;
         Model extra(*c.base);
         for (size_t k = 0; k < fits.size(); ++k)
-          if (fits[k].effect == sc.effect) rival = &models[k];
+          if (fits[k].effect == sc.effect) rival = &models[k], rival_reduction = fits[k].relative_improvement;
         if (!rival) {
           const Effect* e = nullptr;
           for (const auto& x : catalogue)
@@ -1039,7 +1040,11 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
           const CandidateFit rf = evaluate(c, current, *e, step, static_cast<int>(top.size()), extra);
           if (!rf.converged) continue;
           rival = &extra;
+          rival_reduction = rf.relative_improvement;
         }
+        // A rival must explain the gap itself, as much as a selected effect must: one that its bounds
+        // hold at the baseline (adhesion cannot pull) reproduces nothing, however alike its direction.
+        if (!(rival_reduction >= o.min_relative_improvement)) continue;
         const MeanInterval diff = meanInterval(unitLogRatios(rival->unit_sse, sel_model.unit_sse), o.level);
         if (!(diff.lower <= 0 && diff.upper >= 0)) continue;
         ConfusablePair cp;

@@ -56,8 +56,9 @@ struct DiagnosisOptions {
   /// Smallest withheld mean-square-error reduction, relative to the current model's, worth an effect.
   double min_relative_improvement = 0.05;
   /// Canonical correlation of two effects' visible force changes (what the current model cannot
-  /// absorb) at or above which a rival of a selected effect is fitted and, when the two withheld
-  /// errors cannot be told apart, reported confusable with it.
+  /// absorb) at or above which a rival of a selected effect is fitted and, when the rival itself
+  /// removes at least min_relative_improvement of the withheld error and the two withheld errors
+  /// cannot be told apart, reported confusable with it.
   double confusable_correlation = 0.8;
   /// Order of the autoregressive filter that prewhitens held-out residuals (-1: chosen by BIC up
   /// to 10; 0: no prewhitening). The filter is fitted to the noise, not the gap: the baseline's
