@@ -22,6 +22,13 @@ namespace kneesim::gap {
 
 namespace {
 
+// ", name value" for each of a fit's parameters (the blind trace).
+std::string formatParameters(const std::vector<EffectParameter>& ps) {
+  std::string s;
+  for (const auto& p : ps) s += ", " + p.name + " " + formatSignificant(p.value, 3) + (p.at_bound ? " (bound)" : "");
+  return s;
+}
+
 std::vector<double> smoothNoise(int n, double rate, double tau, std::mt19937_64& rng) {
   std::normal_distribution<double> g(0.0, 1.0);
   std::vector<double> w(n);
@@ -500,6 +507,7 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
                   formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
                   formatSignificant(100 * cf.whitened_improvement, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
+                  formatParameters(cf.parameters) +
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }

@@ -15,7 +15,7 @@
  *   threshold          dh (0) m                    F_base(S(h0 + dh)),  S(h) through S@2mm..S@6mm, h0 = S_threshold or 4 mm
  *   grf_load           gain (0)                    F_base + gain * GRF:vertical
  *   emg_cocontraction  gain (0) N                  F_base + gain * EMG:cocontraction
- *   adhesion_jkr       psi (0) N/m^1.5, >= 0       F_base - psi (S / pi)^(3/4)                  [negative control]
+ *   adhesion_jkr       psi (0) N/m^1.5, 0..7e4     F_base - psi (S / pi)^(3/4)                  [negative control]
  *
  * theta is the channel knee_flexion (rad), s_m = S_medial / (S_medial + S_lateral), s_l = 1 - s_m.
  * Force maps give exact derivatives; the engine differentiates rewrites numerically (tests/gap checks both).
@@ -427,8 +427,15 @@ static int emg_map(const double* p, const kneesim_inputs* in, const double* base
 }
 
 /* ---------------------------------------------------------------- adhesion_jkr */
+/* psi = sqrt(8 pi w K) is bounded by its physical size: the work of adhesion w of dry polyethylene
+ * on a metal oxide is at most ~0.1 J/m^2 (less in synovial fluid) and K = E / (1 - nu^2) of UHMWPE
+ * at most ~2 GPa, so psi <= sqrt(8 pi 0.1 2e9) = 7.1e4 N/m^1.5. The proximity area (up to 4 mm of
+ * gap) is larger than the true contact, so even this overstates the pull-off. Unbounded, the term
+ * is no longer adhesion but any -S^(3/4) shape: at psi ~ 2.4e5 (w ~ 1 J/m^2) it mimics an exponent
+ * change on JW's areas. */
 static const kneesim_param jkr_params[] = {
-    {"psi", "N/m^1.5", 0.0, 1e7, 0.0, 1e4, 0, "JKR adhesion term sqrt(8 pi w K): pull-off grows as a^(3/2)"},
+    {"psi", "N/m^1.5", 0.0, 7e4, 0.0, 1e4, 0,
+     "JKR adhesion term sqrt(8 pi w K): pull-off grows as a^(3/2); at most 7e4 (w 0.1 J/m^2, K 2 GPa)"},
 };
 static const char* const jkr_inputs[] = {"S"};
 static int jkr_map(const double* p, const kneesim_inputs* in, const double* base, int nt, const double* tin,
