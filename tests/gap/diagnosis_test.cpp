@@ -173,9 +173,9 @@ TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
 
 // A smaller exponent (dm < 0) asks adhesion for a negative pull-off, which its bound (psi >= 0)
 // forbids: its fit stays at the baseline. However alike the directions of their force changes,
-// adhesion reproduces none of it and is not a rival;
-// radius_flexion, which can follow, is. (Before rivals had to remove 5 % of the withheld error
-// themselves, this seed reported exponent ~ adhesion_jkr.)
+// adhesion reproduces none of it and is not a rival; radius_flexion, which can follow, is. (Before
+// rivals had to remove 5 % of the withheld error themselves, this seed reported exponent ~
+// adhesion_jkr.)
 TEST_F(Diagnosis, ARivalHeldAtTheBaselineByItsBoundIsNotConfusable) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const auto trials = synthetic({{"exponent", {{"dm", -0.6}}}}, 1);
