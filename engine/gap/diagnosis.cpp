@@ -1032,7 +1032,10 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         double rival_reduction = 0;
         Model extra(*c.base);
         for (size_t k = 0; k < fits.size(); ++k)
-          if (fits[k].effect == sc.effect) rival = &models[k], rival_reduction = fits[k].relative_improvement;
+          if (fits[k].effect == sc.effect) {
+            rival = &models[k];
+            rival_reduction = fits[k].relative_improvement;
+          }
         if (!rival) {
           const Effect* e = nullptr;
           for (const auto& x : catalogue)
