@@ -946,16 +946,57 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     for (size_t k = 0; k < fits.size(); ++k)
       if (fits[k].converged && (best < 0 || fits[k].relative_improvement > fits[best].relative_improvement))
         best = static_cast<int>(k);
-    // Among the candidates whose withheld improvement is significant, the prewhitened errors
-    // decide: they weigh the fast differences between rivals, which the smooth gap does not hide,
-    // where raw squared errors are dominated by the slow ones, which it does.
-    bool by_whitened = false;
+    // The step needs a gate: a candidate that would be accepted on its own, i.e. whose withheld
+    // improvement is significant and at least min_relative_improvement (a steady but negligible
+    // improvement does not make a step). Which effect the step adds is then chosen among the
+    // candidates that remove at least min_relative_improvement and whose withheld error is not
+    // significantly worse than the gate's (two-sided interval of the relative reduction of the
+    // pooled MSE over cycles), by the prewhitened errors: they weigh the fast differences between
+    // rivals, which the smooth gap does not hide, where raw squared errors are dominated by the slow
+    // ones, which it does. A larger effect whose reduction varies more from cycle to cycle (the
+    // proximity threshold acts most on a few loud cycles) otherwise lost to a smaller, steadier rival.
+    int significant = -1;  // the gate
     for (size_t k = 0; k < fits.size(); ++k)
-      if (best >= 0 && fits[k].converged && fits[k].one_sided_lower > 0 &&
-          (fits[best].one_sided_lower <= 0 || fits[k].whitened_improvement > fits[best].whitened_improvement)) {
-        by_whitened = by_whitened || static_cast<int>(k) != best;
-        best = static_cast<int>(k);
+      if (fits[k].converged && fits[k].one_sided_lower > 0 &&
+          fits[k].relative_improvement >= o.min_relative_improvement &&
+          (significant < 0 || fits[k].whitened_improvement > fits[significant].whitened_improvement))
+        significant = static_cast<int>(k);
+    std::vector<bool> eligible(fits.size(), false);
+    std::vector<std::string> left_out(fits.size());  // why a candidate not significant on its own was not eligible
+    bool by_whitened = false;
+    const int best_raw = best;
+    if (significant >= 0) {
+      best = significant;
+      for (size_t k = 0; k < fits.size(); ++k) {
+        const std::string& g = fits[significant].effect;
+        if (!fits[k].converged) continue;
+        if (fits[k].relative_improvement < o.min_relative_improvement) {
+          left_out[k] = "it removes under " + fmt(100 * o.min_relative_improvement, 2) + " % of the withheld error";
+          continue;
+        }
+        // One not significant on its own must be comparable in raw error and significantly better than
+        // the gate in prewhitened error: a close call between them stays with the significant one.
+        if (fits[k].one_sided_lower > 0)
+          eligible[k] = true;
+        else if (relativeReductionInterval(models[significant].unit_sse, models[k].unit_sse, o.level).upper < 0)
+          left_out[k] = "its withheld error is significantly worse than " + g + "'s";
+        else if (!(relativeReductionInterval(models[significant].unit_wsse, models[k].unit_wsse, o.level).lower > 0))
+          left_out[k] = "its prewhitened withheld error is not significantly lower than " + g + "'s";
+        else
+          eligible[k] = true;
+        if (eligible[k] && fits[k].whitened_improvement > fits[best].whitened_improvement) best = static_cast<int>(k);
       }
+      by_whitened = best != best_raw;
+    } else {
+      // No gate: the step fails; the decision names the significant candidate (if any) it would have been.
+      for (size_t k = 0; k < fits.size(); ++k)
+        if (best >= 0 && fits[k].converged && fits[k].one_sided_lower > 0 &&
+            (fits[best].one_sided_lower <= 0 || fits[k].whitened_improvement > fits[best].whitened_improvement)) {
+          by_whitened = by_whitened || static_cast<int>(k) != best;
+          best = static_cast<int>(k);
+        }
+      for (size_t k = 0; k < fits.size(); ++k) eligible[k] = fits[k].converged && fits[k].one_sided_lower > 0;
+    }
     auto separatedBy = [&](const std::string& a, const std::string& b, const std::string& evidence) {
       std::string sa, sb;
       for (const auto& e : catalogue) {
@@ -985,7 +1026,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     if (best >= 0) {
       CandidateFit& f = fits[best];
       std::vector<std::string> why;
-      if (!(f.one_sided_lower > 0))
+      if (!(f.one_sided_lower > 0 || significant >= 0))
         why.push_back("its withheld improvement is not significant (MSE reduction " +
                       fmt(100 * f.relative_improvement, 3) + " %, one-sided lower bound " + fmt(100 * f.one_sided_lower, 3) + " % at level " +
                       fmt(1 - o.alpha / fits.size(), 3) + ")");
@@ -996,21 +1037,28 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         if (!p.identified) why.push_back("its parameter '" + p.name + "' is not identifiable");
       accept = why.empty();
       f.accepted = accept;
-      f.decision = accept ? std::string("selected: ") +
-                                (by_whitened ? "best prewhitened withheld improvement among the significant ones (" +
-                                                   fmt(100 * f.whitened_improvement, 3) + "%; MSE " +
-                                                   fmt(100 * f.relative_improvement, 3) + "%)"
-                                             : "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) +
-                                                   "% of the MSE)") +
-                                ", significant, dBIC " + fmt(f.d_bic, 3)
-                          : "not selected: " + join(why, "; ");
+      const std::string whitened = "best prewhitened withheld improvement (" + fmt(100 * f.whitened_improvement, 3) +
+                                   "%; MSE " + fmt(100 * f.relative_improvement, 3) + "%)";
+      std::string how;
+      if (!by_whitened)
+        how = "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) + "% of the MSE), significant";
+      else if (f.one_sided_lower > 0)
+        how = whitened + " among the significant ones";
+      else
+        how = whitened + ", significantly lower in prewhitened error than " + fits[significant].effect +
+              " and not significantly worse in raw error, where " + fits[significant].effect +
+              "'s improvement is significant (its own lower bound " + fmt(100 * f.one_sided_lower, 3) + " %)";
+      f.decision = accept ? "selected: " + how + ", dBIC " + fmt(f.d_bic, 3) : "not selected: " + join(why, "; ");
     }
     for (size_t k = 0; k < fits.size(); ++k)
       if (static_cast<int>(k) != best)
         fits[k].decision =
-            by_whitened && !(fits[k].one_sided_lower > 0)
-                ? "not significant at step " + std::to_string(step) + " (MSE reduction lower bound " +
-                      fmt(100 * fits[k].one_sided_lower, 3) + " %)"
+            by_whitened && !eligible[k]
+                ? (fits[k].one_sided_lower > 0 ? "not eligible at step " + std::to_string(step) + ": " + left_out[k]
+                                               : "not significant at step " + std::to_string(step) +
+                                                     " (MSE reduction lower bound " +
+                                                     fmt(100 * fits[k].one_sided_lower, 3) + " %)" +
+                                                     (left_out[k].empty() ? "" : ", and " + left_out[k]))
                 : std::string("not the best ") + (by_whitened ? "prewhitened " : "") + "withheld improvement at step " +
                       std::to_string(step);
     if (accept) {

@@ -17,9 +17,11 @@
 //     correlation discounted); the top ones are fitted fully (Ipopt) and compared by withheld
 //     error (reduction of the pooled held-out MSE with a ratio-estimator interval over cycles, and
 //     per-cycle log ratios of held-out SSE), dAIC/dBIC and the stability of their parameters across
-//     folds (jackknife interval). Forward selection adds the best effect while its withheld MSE
-//     reduction is significant (Bonferroni over the effects fitted at that step), large enough and
-//     favoured by BIC. Pairs that improve alike with nearly the same
+//     folds (jackknife interval). Forward selection continues while some candidate's withheld MSE
+//     reduction is significant (Bonferroni over the effects fitted at that step) and large enough
+//     (the gate); it adds the best prewhitened candidate among the significant ones and those not
+//     significantly worse than the gate in raw error but significantly better in prewhitened
+//     error, if BIC favours it. Pairs that improve alike with nearly the same
 //     force change are reported as confusable, with what data would separate them. A sign-flip
 //     permutation test over cycles of the final fit's residuals then asks whether systematic
 //     structure remains; if it does the
@@ -67,8 +69,10 @@ struct DiagnosisOptions {
   /// rival effects, which the noise hides, and barely the fast ones, which it does not. Residuals are
   /// compared up to 6 Hz (a measured force does not carry the frame-to-frame jitter the kinematics
   /// put into a model's areas, which whitening would otherwise weigh most). Significance stays on
-  /// the raw errors; among the significant candidates of a step, the larger prewhitened withheld
-  /// improvement is selected. Reported errors stay in newtons.
+  /// the raw errors; among the eligible candidates of a step (the significant ones, and those not
+  /// significantly worse than the best significant one in raw error but significantly better in
+  /// prewhitened error), the larger prewhitened withheld improvement is selected. Reported errors
+  /// stay in newtons.
   int prewhiten_order = -1;
   double structure_alpha = 0.01;  ///< Level of the remaining-structure test.
   int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
@@ -167,7 +171,7 @@ struct CandidateFit {
   /// cycles - 1 dof): > 0 is the significance the selection asks of an effect.
   double one_sided_lower = 0;
   /// relative_improvement of the prewhitened held-out residuals (DiagnosisOptions::prewhiten_order):
-  /// what chooses among the significant candidates of a step.
+  /// what chooses among the eligible candidates of a step (DiagnosisOptions::prewhiten_order).
   double whitened_improvement = 0;
   double d_aic = 0, d_bic = 0;    ///< Against the current model, effective frames.
   std::vector<EffectParameter> parameters;

@@ -103,12 +103,15 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // Threshold: 100 % against flexion_offset, so its misses are the method's; its floors are what
   // the diagnosis achieves today (20 seeds, in the comment). Choosing among the significant
   // candidates by prewhitened withheld errors (up to 6 Hz) lifted it from 11 to 16 (8 -> 13 on
-  // another 20 seeds).
+  // another 20 seeds); letting a significant candidate open the step for any candidate not
+  // significantly worse than it, chosen by the same prewhitened errors, from 16 to 17 (13 -> 17 and
+  // 12 -> 17 on two other sets of 20 seeds). Its remaining misses: no candidate significant (2-3
+  // of 20), or structure left after it.
   struct Demand {
     int named_first = 18, named_or_confusable = 18;
   };
   const std::map<std::string, Demand> weaker{
-      {"threshold", {13, 15}},  // observed 16 / 20 named first, 17 / 20 named or confusable
+      {"threshold", {16, 17}},  // observed 17 / 20 named first, 18 / 20 named or confusable
   };
   // Every visible single-effect case has its best-possible rate against its closest rival.
   for (const auto& bc : getDefaultBlindCases()) {

@@ -194,6 +194,35 @@ TEST_F(Diagnosis, ARivalHeldAtTheBaselineByItsBoundIsNotConfusable) {
   EXPECT_THAT(rivals, testing::Not(testing::Contains("adhesion_jkr")));
 }
 
+// A small threshold change (-0.4 mm) on seed 1: ap_translation removes a steady 8 % of the withheld
+// error (significant) but whitens to -62 %; threshold removes as much (8 %), not significantly less,
+// but varies more from cycle to cycle (not significant on its own) and whitens to +14 %. The step is
+// made by ap_translation's significance; the effect it adds is threshold. (Before the gate rule,
+// the step selected ap_translation.)
+TEST_F(Diagnosis, ASignificantGateLetsTheBestWhitenedComparableCandidateIn) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  const auto trials = synthetic({{"threshold", {{"dh", -0.0004}}}}, 1);
+  DiagnosisOptions o = options();
+  o.where = false;
+  o.shrinkage = false;
+  o.screen_top = 4;
+  o.max_effects = 1;
+  const GapReport rep = diagnose(hertz(), catalogue, trials, o);
+  const TargetDiagnosis& d = rep.targets[0];
+  ASSERT_EQ(d.selected, std::vector<std::string>{"threshold"});
+  const CandidateFit* thr = nullptr;
+  const CandidateFit* gate = nullptr;
+  for (const auto& c : d.candidates) {
+    if (c.effect == "threshold") thr = &c;
+    if (c.one_sided_lower > 0 && c.relative_improvement >= o.min_relative_improvement) gate = &c;
+  }
+  ASSERT_TRUE(thr && gate);
+  EXPECT_EQ(gate->effect, "ap_translation");
+  EXPECT_LT(thr->one_sided_lower, 0);
+  EXPECT_GT(thr->whitened_improvement, gate->whitened_improvement);
+  EXPECT_THAT(thr->decision, HasSubstr("significantly lower in prewhitened error than ap_translation"));
+}
+
 TEST_F(Diagnosis, CompartmentTargetsReadTheirOwnChannels) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const auto trials = synthetic({}, 1);
