@@ -949,11 +949,11 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     // The step needs a gate: a candidate that would be accepted on its own, i.e. whose withheld
     // improvement is significant and at least min_relative_improvement (a steady but negligible
     // improvement does not make a step). Which effect the step adds is then chosen among the
-    // candidates that remove at least min_relative_improvement and whose withheld error is not
-    // significantly worse than the gate's (two-sided interval of the relative reduction of the
-    // pooled MSE over cycles), by the prewhitened errors: they weigh the fast differences between
-    // rivals, which the smooth gap does not hide, where raw squared errors are dominated by the slow
-    // ones, which it does. A larger effect whose reduction varies more from cycle to cycle (the
+    // significant candidates that remove at least min_relative_improvement and those whose withheld
+    // error is not significantly worse than the gate's while their prewhitened error is significantly
+    // lower (two-sided intervals of the relative reduction of the pooled MSE over cycles), by the
+    // prewhitened errors: they weigh the fast differences between rivals, which the smooth gap does
+    // not hide, where raw squared errors are dominated by the slow ones, which it does. A larger effect whose reduction varies more from cycle to cycle (the
     // proximity threshold acts most on a few loud cycles) otherwise lost to a smaller, steadier rival.
     int significant = -1;  // the gate
     for (size_t k = 0; k < fits.size(); ++k)
@@ -1040,9 +1040,9 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       const std::string whitened = "best prewhitened withheld improvement (" + fmt(100 * f.whitened_improvement, 3) +
                                    "%; MSE " + fmt(100 * f.relative_improvement, 3) + "%)";
       std::string how;
-      if (!by_whitened)
+      if (f.one_sided_lower > 0 && !by_whitened)
         how = "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) + "% of the MSE), significant";
-      else if (f.one_sided_lower > 0)
+      else if (f.one_sided_lower > 0 || significant < 0)
         how = whitened + " among the significant ones";
       else
         how = whitened + ", significantly lower in prewhitened error than " + fits[significant].effect +
