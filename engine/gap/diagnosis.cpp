@@ -967,8 +967,8 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     const int best_raw = best;
     if (significant >= 0) {
       best = significant;
+      const std::string& g = fits[significant].effect;
       for (size_t k = 0; k < fits.size(); ++k) {
-        const std::string& g = fits[significant].effect;
         if (!fits[k].converged) continue;
         if (fits[k].relative_improvement < o.min_relative_improvement) {
           left_out[k] = "it removes under " + fmt(100 * o.min_relative_improvement, 2) + " % of the withheld error";

@@ -103,10 +103,10 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // Threshold: 100 % against flexion_offset, so its misses are the method's; its floors are what
   // the diagnosis achieves today (20 seeds, in the comment). Choosing among the significant
   // candidates by prewhitened withheld errors (up to 6 Hz) lifted it from 11 to 16 (8 -> 13 on
-  // another 20 seeds); letting a significant candidate open the step for any candidate not
-  // significantly worse than it, chosen by the same prewhitened errors, from 16 to 17 (13 -> 17 and
-  // 12 -> 17 on two other sets of 20 seeds). Its remaining misses: no candidate significant (2-3
-  // of 20), or structure left after it.
+  // another 20 seeds); letting a significant candidate open the step for a candidate whose raw
+  // withheld error is not significantly worse than it and whose prewhitened one is significantly
+  // lower, from 16 to 17 (13 -> 16 and 12 -> 16 on two other sets of 20 seeds). Its remaining
+  // misses here: no candidate significant (2 of 20), radius_flexion named (1).
   struct Demand {
     int named_first = 18, named_or_confusable = 18;
   };
