@@ -465,6 +465,8 @@ CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, i
   const int nu = cf.reduction.n;
   const double t = studentQuantile(1 - c.o->alpha / std::max(1, n_candidates), std::max(1, nu - 1));
   cf.one_sided_lower = cf.reduction.mean - t * cf.reduction.sd / std::sqrt(std::max(1, nu));
+  const MeanInterval wr = relativeReductionInterval(current.unit_wsse, out.unit_wsse, c.o->level);
+  cf.whitened_one_sided_lower = wr.mean - t * wr.sd / std::sqrt(std::max(1, wr.n));
   const double nfr = std::max(2.0, current.fit.effective_frames);
   int ke = 0;
   std::vector<int> ecols;

@@ -173,6 +173,10 @@ struct CandidateFit {
   /// relative_improvement of the prewhitened held-out residuals (DiagnosisOptions::prewhiten_order):
   /// what chooses among the eligible candidates of a step (DiagnosisOptions::prewhiten_order).
   double whitened_improvement = 0;
+  /// whitened_improvement's lower bound, as one_sided_lower is relative_improvement's. Reported, not
+  /// a criterion on its own: prewhitened errors weigh the fast part of a force change, which the smooth
+  /// noise hides least, and would accept effects the baseline absorbs to well under the noise.
+  double whitened_one_sided_lower = 0;
   double d_aic = 0, d_bic = 0;    ///< Against the current model, effective frames.
   std::vector<EffectParameter> parameters;
   bool accepted = false;

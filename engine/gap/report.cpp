@@ -162,7 +162,9 @@ json toJson(const GapReport& r, const Anchors& a) {
                        {"relative_mse_reduction", num(c.relative_improvement)},
                        {"relative_mse_reduction_interval", meanInterval(c.reduction)},
                        {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)},
-                       {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)}, {"d_aic", num(c.d_aic)},
+                       {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)},
+                       {"prewhitened_relative_mse_reduction_one_sided_lower", num(c.whitened_one_sided_lower)},
+                       {"d_aic", num(c.d_aic)},
                        {"d_bic", num(c.d_bic)}, {"parameters", ps}, {"accepted", c.accepted},
                        {"decision", c.decision}, {"notes", c.notes}});
     }
@@ -277,7 +279,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       for (double v : d.prewhitening) s << " " << fixed(v, 3);
       s << ".";
     }
-    s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened | log ratio [95 % CI] | dAIC | "
+    s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened (lower bound) | log ratio [95 % CI] | dAIC | "
          "dBIC | parameters | decision |\n|---:|---|---:|---:|---:|---|---:|---:|---|---|\n";
     for (const auto& c : d.candidates) {
       std::string ps;
@@ -287,7 +289,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
               fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
       s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
         << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << pct(c.whitened_improvement)
-        << " | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
+        << " (" << pct(c.whitened_one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
         << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
         << ps << " | " << c.decision << " |\n";
     }

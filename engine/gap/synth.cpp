@@ -506,12 +506,16 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
           line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
                   formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
-                  formatSignificant(100 * cf.whitened_improvement, 3) + "%, dBIC " + formatSignificant(cf.d_bic, 3) +
+                  formatSignificant(100 * cf.whitened_improvement, 3) + "% (lb " +
+                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), dBIC " + formatSignificant(cf.d_bic, 3) +
                   formatParameters(cf.parameters) +
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }
-    out.trace.push_back("verdict: " + d.verdict);
+    out.trace.push_back("verdict: " + d.verdict + " (remaining structure: sign-flip p " +
+                        formatSignificant(d.structure.p_value, 3) + ", systematic gap " +
+                        formatSignificant(d.structure.systematic_gap, 3) + " N, band " +
+                        formatSignificant(d.structure.repeatability_band, 3) + " N)");
     out.rmse_baseline = d.baseline_rmse_heldout;
     out.rmse_final = d.shrinkage.front().rmse_final;
     if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {

@@ -134,8 +134,9 @@ struct BlindOutcome {
   bool has_estimate = false;
   /// How the answer came about, one line per selection step: the screening order and, for each
   /// effect fitted fully, its withheld MSE reduction (%), that reduction's one-sided lower bound
-  /// (significance), its prewhitened reduction (the choice among significant ones) and dBIC ("*"
-  /// marks the one selected); then the final verdict.
+  /// (significance), its prewhitened reduction (the choice among eligible ones) with that reduction's
+  /// lower bound, and dBIC ("*" marks the one selected); then the final verdict with the remaining-
+  /// structure test's figures (sign-flip p, systematic gap, repeatability band).
   std::vector<std::string> trace;
 };
 

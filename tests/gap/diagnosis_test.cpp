@@ -221,6 +221,16 @@ TEST_F(Diagnosis, ASignificantGateLetsTheBestWhitenedComparableCandidateIn) {
   EXPECT_LT(thr->one_sided_lower, 0);
   EXPECT_GT(thr->whitened_improvement, gate->whitened_improvement);
   EXPECT_THAT(thr->decision, HasSubstr("significantly lower in prewhitened error than ap_translation"));
+  // Its prewhitened reduction's lower bound (reported, not a criterion) lies below the reduction.
+  EXPECT_LT(thr->whitened_one_sided_lower, thr->whitened_improvement);
+  EXPECT_GT(std::abs(thr->whitened_one_sided_lower - thr->one_sided_lower), 0.01);  // from the prewhitened errors
+  // Without prewhitening the prewhitened errors are the raw ones, and so are their bounds.
+  o.prewhiten_order = 0;
+  const GapReport raw = diagnose(hertz(), catalogue, trials, o);
+  for (const auto& c : raw.targets[0].candidates) {
+    EXPECT_NEAR(c.whitened_improvement, c.relative_improvement, 1e-12) << c.effect;
+    EXPECT_NEAR(c.whitened_one_sided_lower, c.one_sided_lower, 1e-12) << c.effect;
+  }
 }
 
 TEST_F(Diagnosis, CompartmentTargetsReadTheirOwnChannels) {

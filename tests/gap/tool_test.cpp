@@ -142,6 +142,7 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   EXPECT_LE(j["targets"][0]["prewhitening_ar"].size(), 10u);
   ASSERT_GE(j["targets"][0]["candidates"].size(), 1u);
   EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction"));
+  EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction_one_sided_lower"));
   const std::string md = readFileText(dir + "/out/gap_report.md");
   EXPECT_THAT(md, ::testing::Not(HasSubstr("INTERIM")));
   EXPECT_THAT(md, HasSubstr("winners' RMS errors 229-326 N per compartment"));
