@@ -1,7 +1,10 @@
 #pragma once
 // Contexts of the distance_fcl providers (see distance_fcl.cpp and sdf.cpp).
 
+#include <exception>
 #include <limits>
+#include <memory>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -29,6 +32,39 @@ void writeError(char* err, int err_len, const std::string& msg);
 
 // Reads a row-major 3x4 pose and checks it and max_distance; false (with err) if invalid.
 bool readPose(const double* X_TQ, double max_distance, Eigen::Matrix3d& R, Vec3& t, char* err, int err_len);
+// The checks every provider's compute() starts with: a context, a pose and, for any points, an
+// output array; then readPose. False (with err) if one fails.
+bool readCall(bool have_context, size_t n_points, const double* X_TQ, double max_distance, const double* distance,
+              Eigen::Matrix3d& R, Vec3& t, char* err, int err_len);
+
+// Every provider's create(): checks the arguments, builds a Map whose init(view, n, points,
+// extra...) returns an empty string or the reason for refusing, and turns exceptions into err.
+template <class Map, class... Extra>
+void* createProvider(const kneesim_mesh_view* target, int n_points, const double* points_Q, char* err, int err_len,
+                     Extra... extra) {
+  try {
+    if (!target) {
+      writeError(err, err_len, "expected a target mesh, got none");
+      return nullptr;
+    }
+    if (n_points < 0 || (n_points > 0 && !points_Q)) {
+      writeError(err, err_len, "expected query points, got " + std::to_string(n_points));
+      return nullptr;
+    }
+    auto c = std::make_unique<Map>();
+    const std::string problem = c->init(*target, n_points, points_Q, extra...);
+    if (!problem.empty()) {
+      writeError(err, err_len, problem);
+      return nullptr;
+    }
+    return static_cast<ProviderContext*>(c.release());
+  } catch (const std::bad_alloc&) {
+    writeError(err, err_len, "out of memory preparing the distance queries");
+  } catch (const std::exception& e) {
+    writeError(err, err_len, std::string("FCL failed preparing the distance queries: ") + e.what());
+  }
+  return nullptr;
+}
 
 // How an exact map computes: the fast path over the compact tree, the same with FCL's own
 // queries, or one unbounded FCL query per point.

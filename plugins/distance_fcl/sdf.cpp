@@ -303,40 +303,15 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
 namespace {
 
 void* createSdf(const kneesim_mesh_view* target, int n_points, const double* points_Q, char* err, int err_len) {
-  try {
-    if (!target) {
-      writeError(err, err_len, "expected a target mesh, got none");
-      return nullptr;
-    }
-    if (n_points < 0 || (n_points > 0 && !points_Q)) {
-      writeError(err, err_len, "expected query points, got " + std::to_string(n_points));
-      return nullptr;
-    }
-    auto c = std::make_unique<SdfMap>();
-    const std::string problem = c->init(*target, n_points, points_Q);
-    if (!problem.empty()) {
-      writeError(err, err_len, problem);
-      return nullptr;
-    }
-    return static_cast<ProviderContext*>(c.release());
-  } catch (const std::bad_alloc&) {
-    writeError(err, err_len, "out of memory preparing the distance queries");
-  } catch (const std::exception& e) {
-    writeError(err, err_len, std::string("FCL failed preparing the distance queries: ") + e.what());
-  }
-  return nullptr;
+  return createProvider<SdfMap>(target, n_points, points_Q, err, err_len);
 }
 
 int computeSdf(void* ctx, const double* X_TQ, double max_distance, double* distance, double* closest_T, char* err,
                int err_len) {
   SdfMap* c = static_cast<SdfMap*>(static_cast<ProviderContext*>(ctx));
-  if (!c || !X_TQ || (!distance && c->exact.points_Q.size() > 0)) {
-    writeError(err, err_len, "expected a context, a pose and an output array, got a null pointer");
-    return 1;
-  }
   Eigen::Matrix3d R;
   Vec3 t;
-  if (!readPose(X_TQ, max_distance, R, t, err, err_len)) return 1;
+  if (!readCall(c, c ? c->exact.points_Q.size() : 0, X_TQ, max_distance, distance, R, t, err, err_len)) return 1;
   try {
     return c->compute(R, t, max_distance, distance, closest_T);
   } catch (const std::bad_alloc&) {
