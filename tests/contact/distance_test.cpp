@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
@@ -187,6 +188,49 @@ TEST(DistanceFcl, BadInputIsAnInputError) {
   EXPECT_THROW(f.calcDistances(Eigen::Isometry3d::Identity(), std::nan(""), d), InputError);
   f.calcDistances(Eigen::Isometry3d::Identity(), 1e-3, d);  // still usable
   EXPECT_GT(d[0], 1e-3);
+}
+
+// The C table itself, as a plugin author's caller would use it: every provider refuses null or
+// negative arguments with a one-line reason and stays usable after refusing a bad pose.
+TEST(DistanceFcl, EveryProviderRefusesBadArgumentsThroughItsCTable) {
+  plugin::Registry reg;
+  reg.loadPlugin("distance_fcl");
+  const io::TriangleMesh box = test::makeBox(Vector3d::Zero(), Vector3d::Ones() * 0.01);
+  std::vector<double> v;
+  std::vector<int> tri;
+  for (const auto& x : box.vertices) v.insert(v.end(), {x[0], x[1], x[2]});
+  for (const auto& t : box.triangles) tri.insert(tri.end(), {t[0], t[1], t[2]});
+  const kneesim_mesh_view view{box.getNumVertices(), v.data(), box.getNumTriangles(), tri.data()};
+  const double p_Q[3] = {0.02, 0.005, 0.005};  // 10 mm outside the +x face of the 10 mm box
+  const double I[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  for (const char* name : {"fcl", "fcl_pruned", "fcl_naive", "fcl_sdf"}) {
+    SCOPED_TRACE(name);
+    const kneesim_distance_provider& pr = reg.getDistanceProvider(name);
+    char err[256] = "";
+    EXPECT_EQ(pr.create(nullptr, 1, p_Q, err, int(sizeof err)), nullptr);
+    EXPECT_STREQ(err, "expected a target mesh, got none");
+    EXPECT_EQ(pr.create(&view, -1, p_Q, err, int(sizeof err)), nullptr);
+    EXPECT_STREQ(err, "expected query points, got -1");
+    EXPECT_EQ(pr.create(&view, 1, nullptr, err, int(sizeof err)), nullptr);
+    EXPECT_STREQ(err, "expected query points, got 1");
+    void* ctx = pr.create(&view, 1, p_Q, err, int(sizeof err));
+    ASSERT_NE(ctx, nullptr) << err;
+    double d = 0;
+    EXPECT_EQ(pr.compute(nullptr, I, 0.02, &d, nullptr, err, int(sizeof err)), 1);
+    EXPECT_STREQ(err, "expected a context, a pose and an output array, got a null pointer");
+    EXPECT_EQ(pr.compute(ctx, I, 0.02, nullptr, nullptr, err, int(sizeof err)), 1);
+    EXPECT_STREQ(err, "expected a context, a pose and an output array, got a null pointer");
+    double nan_pose[12];
+    std::copy(I, I + 12, nan_pose);
+    nan_pose[3] = std::nan("");
+    EXPECT_EQ(pr.compute(ctx, nan_pose, 0.02, &d, nullptr, err, int(sizeof err)), 1);
+    EXPECT_STREQ(err, "expected a finite pose X_TQ, got a non-finite entry");
+    EXPECT_EQ(pr.compute(ctx, I, -1.0, &d, nullptr, err, int(sizeof err)), 1);
+    EXPECT_EQ(std::string(err).rfind("expected a positive max_distance, got -1", 0), 0u) << err;
+    ASSERT_EQ(pr.compute(ctx, I, 0.02, &d, nullptr, err, int(sizeof err)), 0) << err;
+    EXPECT_NEAR(d, 0.010, 2e-5);  // fcl_sdf's stated tolerance is 20 um; the others are exact
+    pr.destroy(ctx);
+  }
 }
 
 // JW's insert articular vertices against the femoral component, seated at several flexion
