@@ -49,6 +49,24 @@ TEST(DistanceFcl, RegistersFastAndNaiveProviders) {
   EXPECT_NE(reg.findOrigin("fcl").find("libkneesim_distance_fcl.so"), std::string::npos);
 }
 
+// JW's femoral component and insert (metres), seated on the condyles' common cylinder, and the
+// insert's articular vertices, medial then lateral: the points of the JW tests.
+struct JwImplant {
+  io::TriangleMesh fem, ins;
+  SeatingSetup setup;
+  std::vector<Vector3d> pts;
+};
+JwImplant loadJwImplant() {
+  const std::string dir = "kgc4-jw/implant/";
+  JwImplant jw;
+  jw.fem = io::readStl(test::dataPath(dir + "femoral_component.stl"), {1.0, true, 0.01, 0.5});
+  jw.ins = io::readStl(test::dataPath(dir + "tibial_insert.stl"), {1.0, true, 0.01, 0.5});
+  jw.setup = makeSeatingSetup(jw.fem, jw.ins, fitCondyles(jw.fem, ArticularSelection{}).both.cylinder);
+  jw.pts = getPositions(jw.setup.insert_medial_I);
+  for (const Vector3d& p : getPositions(jw.setup.insert_lateral_I)) jw.pts.push_back(p);
+  return jw;
+}
+
 // The block of the plane tests: its top is the plane y = 0 (100 x 100 mm, 50 mm deep, 1 mm grid);
 // the points lie over its middle, off the grid nodes.
 struct PlaneCase {
@@ -254,13 +272,10 @@ TEST(DistanceFcl, EveryProviderRefusesBadArgumentsThroughItsCTable) {
 TEST_P(DistanceProviders, JwInsertAgainstFemoralComponentMatchesMeshDistance) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
-  const std::string dir = "kgc4-jw/implant/";
-  io::TriangleMesh fem = io::readStl(test::dataPath(dir + "femoral_component.stl"), {1.0, true, 0.01, 0.5});
-  io::TriangleMesh ins = io::readStl(test::dataPath(dir + "tibial_insert.stl"), {1.0, true, 0.01, 0.5});
-  const CondyleFits fits = fitCondyles(fem, ArticularSelection{});
-  const SeatingSetup setup = makeSeatingSetup(fem, ins, fits.both.cylinder);
-  std::vector<Vector3d> pts = getPositions(setup.insert_medial_I);
-  for (const Vector3d& p : getPositions(setup.insert_lateral_I)) pts.push_back(p);
+  const JwImplant jw = loadJwImplant();
+  const io::TriangleMesh& fem = jw.fem;
+  const SeatingSetup& setup = jw.setup;
+  const std::vector<Vector3d>& pts = jw.pts;
   Seater seater(setup);
   const std::vector<SeatingResult> seats = seater.calcHingeKinematics({0.0, 20 * kDegree, 45 * kDegree});
   const MeshDistance exact(fem);
@@ -297,13 +312,10 @@ TEST_P(DistanceProviders, JwInsertAgainstFemoralComponentMatchesMeshDistance) {
 TEST(DistanceFcl, PacketAndScalarSearchesAgreeOnJw) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
-  const std::string dir = "kgc4-jw/implant/";
-  io::TriangleMesh fem = io::readStl(test::dataPath(dir + "femoral_component.stl"), {1.0, true, 0.01, 0.5});
-  io::TriangleMesh ins = io::readStl(test::dataPath(dir + "tibial_insert.stl"), {1.0, true, 0.01, 0.5});
-  const CondyleFits fits = fitCondyles(fem, ArticularSelection{});
-  const SeatingSetup setup = makeSeatingSetup(fem, ins, fits.both.cylinder);
-  std::vector<Vector3d> pts = getPositions(setup.insert_medial_I);
-  for (const Vector3d& p : getPositions(setup.insert_lateral_I)) pts.push_back(p);
+  const JwImplant jw = loadJwImplant();
+  const io::TriangleMesh& fem = jw.fem;
+  const SeatingSetup& setup = jw.setup;
+  const std::vector<Vector3d>& pts = jw.pts;
   const std::vector<SeatingResult> seats = Seater(setup).calcHingeKinematics({0.0, 10 * kDegree, 30 * kDegree});
   const kneesim_distance_provider& fcl = loadProvider(reg);
   DistanceField packets(fcl, fem, pts);
@@ -444,13 +456,11 @@ TEST(DistanceFclSdf, WiderSearchRadiusRebuildsTheBand) {
 TEST(DistanceFclSdf, JwMatchesMeshDistanceAndContactAreaWithinTolerance) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
-  const std::string dir = "kgc4-jw/implant/";
-  io::TriangleMesh fem = io::readStl(test::dataPath(dir + "femoral_component.stl"), {1.0, true, 0.01, 0.5});
-  io::TriangleMesh ins = io::readStl(test::dataPath(dir + "tibial_insert.stl"), {1.0, true, 0.01, 0.5});
-  const CondyleFits fits = fitCondyles(fem, ArticularSelection{});
-  const SeatingSetup setup = makeSeatingSetup(fem, ins, fits.both.cylinder);
-  std::vector<Vector3d> pts = getPositions(setup.insert_medial_I);
-  for (const Vector3d& p : getPositions(setup.insert_lateral_I)) pts.push_back(p);
+  const JwImplant jw = loadJwImplant();
+  const io::TriangleMesh& fem = jw.fem;
+  const io::TriangleMesh& ins = jw.ins;
+  const SeatingSetup& setup = jw.setup;
+  const std::vector<Vector3d>& pts = jw.pts;
   const std::vector<SeatingResult> seats = Seater(setup).calcHingeKinematics({0.0, 20 * kDegree, 45 * kDegree});
   const MeshDistance exact(fem);
   DistanceField field(loadProvider(reg, "fcl_sdf"), fem, pts);
