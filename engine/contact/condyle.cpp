@@ -15,18 +15,6 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-// Columns posterior, superior, medial made orthonormal (superior kept; the medial column keeps
-// its side, so a left knee's basis is left-handed).
-Eigen::Matrix3d orthonormalBasis(const ComponentDirections& d) {
-  const Vector3d s = d.superior.normalized();
-  const Vector3d p = (d.posterior - d.posterior.dot(s) * s).normalized();
-  Vector3d m = p.cross(s);
-  if (m.dot(d.medial) < 0) m = -m;
-  Eigen::Matrix3d B;
-  B << p, s, m;
-  return B;
-}
-
 double meshExtent(const io::TriangleMesh& mesh) {
   const auto [lo, hi] = mesh.calcBounds();
   return (hi - lo).maxCoeff();
@@ -83,8 +71,18 @@ std::vector<int> farthestPointSample(const std::vector<SurfacePoint>& pts, int c
 
 }  // namespace
 
+Eigen::Matrix3d ComponentDirections::calcOrthonormalBasis() const {
+  const Vector3d s = superior.normalized();
+  const Vector3d p = (posterior - posterior.dot(s) * s).normalized();
+  Vector3d m = p.cross(s);
+  if (m.dot(medial) < 0) m = -m;
+  Eigen::Matrix3d B;
+  B << p, s, m;
+  return B;
+}
+
 Eigen::Matrix3d ComponentDirections::calcRotationTo(const ComponentDirections& other) const {
-  const Eigen::Matrix3d R = orthonormalBasis(other) * orthonormalBasis(*this).transpose();
+  const Eigen::Matrix3d R = other.calcOrthonormalBasis() * calcOrthonormalBasis().transpose();
   if (!(R.determinant() > 0))
     throw InputError({"", 0, "component directions"},
                      "expected two components of the same knee (left or right), got directions that a rotation "

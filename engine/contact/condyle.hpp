@@ -35,6 +35,9 @@ struct ComponentDirections {
   /// The flexion axis superior x posterior (unit): a positive rotation about it turns the femur's
   /// superior direction toward posterior, i.e. flexes the knee, for a left or a right knee.
   Eigen::Vector3d calcFlexionAxis() const { return superior.cross(posterior).normalized(); }
+  /// The columns posterior, superior, medial made orthonormal: superior kept, posterior
+  /// orthogonalised, medial the rest on its own side (so a left knee's basis is left-handed).
+  Eigen::Matrix3d calcOrthonormalBasis() const;
   /// The rotation taking these directions onto @p other's (R_OC for C = this, O = other), after
   /// making both sets orthonormal (superior kept, posterior orthogonalised, medial = the rest).
   /// Throws InputError if one set belongs to a left knee and the other to a right knee.

@@ -48,16 +48,6 @@ class ExactPointSetDistance final : public PointSetDistance {
   std::vector<Vector3d> points_;
 };
 
-Eigen::Matrix3d orthonormalDirections(const ComponentDirections& d) {
-  const Vector3d s = d.superior.normalized();
-  const Vector3d p = (d.posterior - d.posterior.dot(s) * s).normalized();
-  Vector3d m = p.cross(s);
-  if (m.dot(d.medial) < 0) m = -m;
-  Eigen::Matrix3d B;
-  B << p, s, m;
-  return B;
-}
-
 }  // namespace
 
 SeatingSetup makeSeatingSetup(io::TriangleMesh femur, io::TriangleMesh insert, const Cylinder& hinge_F,
@@ -122,7 +112,7 @@ Seater::Seater(SeatingSetup setup, SeatingOptions options)
     throw InputError({fsrc, 0, "seating"}, "expected positive tolerance, position_tolerance and fd_step");
 
   Impl& m = *impl_;
-  m.B_I = orthonormalDirections(setup_.insert_directions);
+  m.B_I = setup_.insert_directions.calcOrthonormalBasis();
   m.R_IF0 = setup_.femur_directions.calcRotationTo(setup_.insert_directions);
   m.axis_F = setup_.hinge_F.axis.normalized();
   if (m.axis_F.dot(setup_.femur_directions.calcFlexionAxis()) < 0) m.axis_F = -m.axis_F;

@@ -102,6 +102,15 @@ TEST(Directions, RotationsAndValidation) {
   skew.superior = Vector3d(1, 0.1, 0);
   EXPECT_THROW(skew.validate("x.stl"), InputError);
   EXPECT_NO_THROW(a.validate("x.stl"));
+  // Orthonormalised by hand: superior (0, 2, 0) -> y; posterior (1, 0.1, 0) loses its y part -> x;
+  // medial (0.1, 0, -3) keeps its side -> -z, so this left knee's basis is left-handed.
+  ComponentDirections tilted;
+  tilted.posterior = Vector3d(1, 0.1, 0);
+  tilted.superior = Vector3d(0, 2, 0);
+  tilted.medial = Vector3d(0.1, 0, -3);
+  Eigen::Matrix3d expected;
+  expected << 1, 0, 0, 0, 1, 0, 0, 0, -1;
+  EXPECT_NEAR((tilted.calcOrthonormalBasis() - expected).norm(), 0, 1e-15);
 }
 
 io::TriangleMesh readJwFemur() {
