@@ -172,6 +172,20 @@ const char* const kNewBodyNames[9] = {"pelvis", "femur", "femoral_component", "t
                                       "patella", "talus", "calcaneus", "toes"};
 enum { kPelvis, kFemur, kFemoral, kTray, kTibia, kPatella, kTalus, kCalcaneus, kToes };
 
+// The six transform axes of the knee's and the patellofemoral joint's CustomJoint, each driven
+// one to one by its coordinate c[a]: flexion (z), adduction (-x), rotation (y), then the
+// translations along -x, y and -z.
+void setKneeAxes(model::Joint& j, const int c[6]) {
+  j.coordinates.assign(c, c + 6);
+  const Vector3d axes[6] = {Vector3d(0, 0, 1), Vector3d(-1, 0, 0), Vector3d(0, 1, 0),
+                            Vector3d(-1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, -1)};
+  for (int a = 0; a < 6; ++a) {
+    j.spatial[a].axis = axes[a];
+    j.spatial[a].coordinates = {c[a]};
+    j.spatial[a].function = model::makeLinear(1.0, 0.0);
+  }
+}
+
 }  // namespace
 
 KneeModelSetup readKneeModelSetup(const std::string& path) {
@@ -565,14 +579,7 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     for (int i = 1; i < 6; ++i)
       c[i] = addCoordinate(names[i], i < 3 ? R : T, i < 3 ? -30 * kDeg : -0.05, i < 3 ? 30 * kDeg : 0.05, false, false,
                            0.0);
-    j.coordinates.assign(c, c + 6);
-    const Vector3d axes[6] = {Vector3d(0, 0, 1), Vector3d(-1, 0, 0), Vector3d(0, 1, 0),
-                              Vector3d(-1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, -1)};
-    for (int a = 0; a < 6; ++a) {
-      j.spatial[a].axis = axes[a];
-      j.spatial[a].coordinates = {c[a]};
-      j.spatial[a].function = model::makeLinear(1.0, 0.0);
-    }
+    setKneeAxes(j, c);
     m->joints.push_back(j);
     for (int i = 1; i < 6; ++i) {
       model::CoordinateCoupler cc;
@@ -603,14 +610,7 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     c[3] = addCoordinate(names[3], T, -0.05, 0.05, false, false, 0.0);
     c[4] = addCoordinate(names[4], T, -0.05, 0.05, false, false, 0.0);
     c[5] = addCoordinate(names[5], T, -0.05, 0.05, false, true, 0.0);
-    j.coordinates.assign(c, c + 6);
-    const Vector3d axes[6] = {Vector3d(0, 0, 1), Vector3d(-1, 0, 0), Vector3d(0, 1, 0),
-                              Vector3d(-1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, -1)};
-    for (int a = 0; a < 6; ++a) {
-      j.spatial[a].axis = axes[a];
-      j.spatial[a].coordinates = {c[a]};
-      j.spatial[a].function = model::makeLinear(1.0, 0.0);
-    }
+    setKneeAxes(j, c);
     m->joints.push_back(j);
     int knee_flex = -1;
     for (size_t i = 0; i < m->coordinates.size(); ++i)
