@@ -205,6 +205,25 @@ std::string joinNames(const std::vector<std::string>& v) {
   return s;
 }
 
+
+// The free parameters f but f[held] (a solve with that one held): their indices into rest, their
+// start values from p into y0, their bounds and scales into lo (replacing lo's).
+void holdOneOut(const ContactLaw& law, const std::vector<int>& f, int held, const Eigen::VectorXd& p,
+                const std::vector<double>& lower, const std::vector<double>& upper, std::vector<int>& rest,
+                std::vector<double>& y0, LeastSquaresOptions& lo) {
+  lo.lower.clear();
+  lo.upper.clear();
+  lo.scale.clear();
+  for (size_t b = 0; b < f.size(); ++b)
+    if (static_cast<int>(b) != held) {
+      rest.push_back(f[b]);
+      y0.push_back(p[f[b]]);
+      lo.lower.push_back(lower[f[b]]);
+      lo.upper.push_back(upper[f[b]]);
+      lo.scale.push_back(law.getParameter(f[b]).typical_scale);
+    }
+}
+
 }  // namespace
 
 PredictionReport predict(const ContactLaw& law, const Eigen::VectorXd& params, const Trial& trial,
@@ -351,14 +370,7 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
     std::vector<int> rest;
     std::vector<double> y0;
     LeastSquaresOptions lo;
-    for (size_t b = 0; b < f.size(); ++b)
-      if (static_cast<int>(b) != c) {
-        rest.push_back(f[b]);
-        y0.push_back(p[f[b]]);
-        lo.lower.push_back(lower[f[b]]);
-        lo.upper.push_back(upper[f[b]]);
-        lo.scale.push_back(law.getParameter(f[b]).typical_scale);
-      }
+    holdOneOut(law, f, c, p, lower, upper, rest, y0, lo);
     lo.weights = w0;
     lo.max_iterations = o.max_iterations;
     lo.tolerance = o.tolerance;
@@ -554,17 +566,7 @@ FitReport fit(const ContactLaw& law, const std::vector<Trial>& trials, const Fit
     std::vector<int> others;
     std::vector<double> y0;
     LeastSquaresOptions po = lso;
-    po.lower.clear();
-    po.upper.clear();
-    po.scale.clear();
-    for (int b = 0; b < k; ++b)
-      if (b != a) {
-        others.push_back(free[b]);
-        y0.push_back(full[free[b]]);
-        po.lower.push_back(lower[free[b]]);
-        po.upper.push_back(upper[free[b]]);
-        po.scale.push_back(law.getParameter(free[b]).typical_scale);
-      }
+    holdOneOut(law, free, a, full, lower, upper, others, y0, po);
     po.verbose = false;
     po.warm_mu = 1e-6;
     data.setFull(p);
