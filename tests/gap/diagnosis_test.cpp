@@ -10,10 +10,12 @@
 #include "io/knee_forces.hpp"
 #include "io/storage.hpp"
 #include "plugin/registry.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::gap {
 namespace {
 
+using kneesim::test::inputErrorOf;
 using ::testing::HasSubstr;
 
 class Diagnosis : public ::testing::Test {
@@ -257,22 +259,14 @@ TEST_F(Diagnosis, BadRequestsAreOneLineErrors) {
   auto trials = synthetic({}, 1);
   DiagnosisOptions o = options();
   o.targets = {"patellar"};
-  try {
-    diagnose(hertz(), catalogue, trials, o);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("target: expected total, medial or lateral, got 'patellar'"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { diagnose(hertz(), catalogue, trials, o); }),
+              HasSubstr("target: expected total, medial or lateral, got 'patellar'"));
   EXPECT_THROW(diagnose(hertz(), catalogue, {}, options()), InputError);
   trials.resize(1);
   trials[0].cycles.resize(1);
   std::fill(trials[0].cycle_index.begin(), trials[0].cycle_index.end(), 0);
-  try {
-    diagnose(hertz(), catalogue, trials, options());
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("expected at least two cycles to hold one out, got 1"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { diagnose(hertz(), catalogue, trials, options()); }),
+              HasSubstr("expected at least two cycles to hold one out, got 1"));
 }
 
 }  // namespace

@@ -6,10 +6,12 @@
 #include <cmath>
 
 #include "plugin/registry.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::gap {
 namespace {
 
+using kneesim::test::inputErrorOf;
 using ::testing::HasSubstr;
 
 // A 1.2 s trial at 120 Hz with every channel the catalogue reads, smooth and away from zero.
@@ -58,12 +60,8 @@ TEST_F(Effects, TheCatalogueIsRegistered) {
                                       "flexion_gain", "flexion_offset", "grf_load", "ml_compartments",
                                       "radius_flexion", "rate", "threshold", "time_delay"}));
   EXPECT_THAT(registry.findOrigin("time_delay"), HasSubstr("libkneesim_gap_effects.so"));
-  try {
-    Effect::fromRegistry(registry, "delay", {"g.xml", 3, "effects"});
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("g.xml:3: effects: no effect named 'delay' (loaded: adhesion_jkr, "));
-  }
+  EXPECT_THAT(inputErrorOf([&] { Effect::fromRegistry(registry, "delay", {"g.xml", 3, "effects"}); }),
+              HasSubstr("g.xml:3: effects: no effect named 'delay' (loaded: adhesion_jkr, "));
 }
 
 // Every effect at its defaults gives the baseline's force back exactly, and its Jacobian (exact for
@@ -173,12 +171,8 @@ TEST_F(Effects, EffectsComposeAndMissingChannelsAreNamed) {
   EXPECT_EQ(Effect::fromRegistry(registry, "flexion_offset").findMissingInputs(c.ch),
             std::vector<std::string>{"dS_dflexion"});
   EXPECT_TRUE(Effect::fromRegistry(registry, "time_delay").findMissingInputs(c.ch).empty());
-  try {
-    identify::LawInputs bad(law, c.ch, c.time, "walk");
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("needs input channel 'dS_dflexion', which trial 'walk' does not have"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { identify::LawInputs bad(law, c.ch, c.time, "walk"); }),
+              HasSubstr("needs input channel 'dS_dflexion', which trial 'walk' does not have"));
 }
 
 // Tables the registry refuses.

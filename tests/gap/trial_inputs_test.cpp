@@ -10,10 +10,12 @@
 #include "io/knee_forces.hpp"
 #include "io/storage.hpp"
 #include "support/test_data.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::gap {
 namespace {
 
+using kneesim::test::inputErrorOf;
 using ::testing::HasSubstr;
 
 using test::jwSource;
@@ -122,32 +124,18 @@ TEST(TrialInputs, BadInputsAreOneLineErrors) {
   io::writeStorage(dir + "/mm2.sto", a);
   TrialSource bad = s;
   bad.contact_area = dir + "/mm2.sto";
-  try {
-    assembleTrial(bad);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("contact area: expected m^2"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { assembleTrial(bad); }), HasSubstr("contact area: expected m^2"));
   // Times that do not overlap.
   a = io::readStorage(s.contact_area);
   a.data.col(0).array() += 100.0;
   io::writeStorage(dir + "/late.sto", a);
   bad.contact_area = dir + "/late.sto";
-  try {
-    assembleTrial(bad);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("to overlap by at least 10 frames, got 0"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { assembleTrial(bad); }), HasSubstr("to overlap by at least 10 frames, got 0"));
   bad.contact_area.clear();
   EXPECT_THROW(assembleTrial(bad), InputError);
   s.events = "sometimes";
-  try {
-    assembleTrial(s);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("events: expected auto, plates, force, flexion or times, got 'sometimes'"));
-  }
+  EXPECT_THAT(inputErrorOf([&] { assembleTrial(s); }),
+              HasSubstr("events: expected auto, plates, force, flexion or times, got 'sometimes'"));
 }
 
 TEST(TrialInputs, CrossingsAndCyclesOnAHandMadeSignal) {

@@ -8,6 +8,7 @@
 
 #include "plugin/registry.hpp"
 #include "synthetic.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::identify {
 namespace {
@@ -40,16 +41,7 @@ auto hertzK(double k, double r = kR) {
   return [k, r](double s) { return hertzForce(s, k, r); };
 }
 
-template <class F>
-std::string inputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError thrown";
-  return "";
-}
+using kneesim::test::inputErrorOf;
 
 TEST_F(Fit, HertzRecoversKAndFlagsEAndNu) {
   const ContactLaw hertz = law("hertz");

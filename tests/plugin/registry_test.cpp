@@ -9,6 +9,7 @@
 
 #include "identify/contact_law.hpp"
 #include "support/test_data.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::plugin {
 namespace {
@@ -19,17 +20,7 @@ using ::testing::Not;
 const std::string kBuildDir = KNEESIM_PLUGIN_BUILD_DIR;
 const std::string kFixtureDir = KNEESIM_FIXTURE_PLUGIN_DIR;
 
-// The message of the InputError thrown by f (fails the test if none is thrown).
-template <class F>
-std::string inputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError thrown";
-  return "";
-}
+using kneesim::test::inputErrorOf;
 
 TEST(Registry, LoadsHertzByNameFromTheBuildFolder) {
   Registry r;
