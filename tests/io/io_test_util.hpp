@@ -1,5 +1,6 @@
 #pragma once
-// Helpers for the io tests: writing fixture text byte-exactly and checking InputError messages.
+// Helpers for the io tests: writing fixture text byte-exactly; checking InputError messages
+// (support/input_error.hpp).
 
 #include <gtest/gtest.h>
 
@@ -8,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::io::test_util {
 
@@ -24,21 +25,7 @@ inline std::string readBytes(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-/// Runs @p fn and returns the message of the InputError it throws (fails the test if none).
-inline std::string inputErrorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << "InputError must be one line: " << msg;
-    return msg;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "expected InputError, got another exception: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "expected InputError, nothing was thrown";
-  return {};
-}
+using kneesim::test::inputErrorOf;
 
 /// Replaces every "\n" in @p text by @p eol.
 inline std::string withLineEnds(const std::string& text, const std::string& eol) {
