@@ -46,6 +46,26 @@ int searchInterval(const std::vector<double>& x, double xv) {
   return k;
 }
 
+
+// OpenSim's rule outside and on the ends of the knots x: linear extrapolation with the end
+// slopes b, and the end values on the ends (within rounding). Sets v and returns true there;
+// false inside, where the function's own interval formula applies.
+bool findEndValue(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& b, double xv,
+                  double& v) {
+  const size_t n = x.size();
+  if (xv < x[0])
+    v = y[0] + (xv - x[0]) * b[0];
+  else if (xv > x[n - 1])
+    v = y[n - 1] + (xv - x[n - 1]) * b[n - 1];
+  else if (equalWithinError(xv, x[0]))
+    v = y[0];
+  else if (equalWithinError(xv, x[n - 1]))
+    v = y[n - 1];
+  else
+    return false;
+  return true;
+}
+
 }  // namespace
 
 std::string checkKnots(const std::vector<double>& x, const std::vector<double>& y) {
@@ -155,11 +175,8 @@ int SimmSpline::findInterval(double x) const { return searchInterval(x_, x); }
 
 double SimmSpline::calcValue(const double* xp) const {
   const double x = xp[0];
-  const int n = int(x_.size());
-  if (x < x_[0]) return y_[0] + (x - x_[0]) * b_[0];
-  if (x > x_[n - 1]) return y_[n - 1] + (x - x_[n - 1]) * b_[n - 1];
-  if (equalWithinError(x, x_[0])) return y_[0];
-  if (equalWithinError(x, x_[n - 1])) return y_[n - 1];
+  double v;
+  if (findEndValue(x_, y_, b_, x, v)) return v;
   const int k = findInterval(x);
   const double dx = x - x_[k];
   return y_[k] + dx * (b_[k] + dx * (c_[k] + dx * d_[k]));
@@ -193,11 +210,8 @@ int PiecewiseLinearFunction::findInterval(double x) const { return searchInterva
 
 double PiecewiseLinearFunction::calcValue(const double* xp) const {
   const double x = xp[0];
-  const int n = int(x_.size());
-  if (x < x_[0]) return y_[0] + (x - x_[0]) * b_[0];
-  if (x > x_[n - 1]) return y_[n - 1] + (x - x_[n - 1]) * b_[n - 1];
-  if (equalWithinError(x, x_[0])) return y_[0];
-  if (equalWithinError(x, x_[n - 1])) return y_[n - 1];
+  double v;
+  if (findEndValue(x_, y_, b_, x, v)) return v;
   const int k = findInterval(x);
   return y_[k] + (x - x_[k]) * b_[k];
 }

@@ -117,6 +117,8 @@ TEST(Function, PiecewiseLinear) {
   EXPECT_DOUBLE_EQ(f->calcValue(-1.0), -2.0);  // first segment's slope
   EXPECT_DOUBLE_EQ(f->calcValue(5.0), 0.0);    // last segment's slope
   EXPECT_DOUBLE_EQ(f->calcValue(1.0), 2.0);
+  EXPECT_DOUBLE_EQ(f->calcValue(0.0), 0.0);  // the end knots give their values
+  EXPECT_DOUBLE_EQ(f->calcValue(3.0), 1.0);
 }
 
 TEST(Function, MultiplierScalesValueAndDerivatives) {
