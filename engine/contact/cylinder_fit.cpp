@@ -70,6 +70,27 @@ FitErrors summarise(const Eigen::VectorXd& r) {
   return e;
 }
 
+// The damping loop of one Levenberg-Marquardt iteration on the normal equations A = J'J,
+// g = J'r: raises lambda (x4) until tryStep(step) lowers the cost (it then keeps the step and
+// returns true) and lowers lambda (/3) after that. False when no damping lowers the cost: the
+// fit has converged to rounding.
+template <int N, class TryStep>
+bool takeDampedStep(const Eigen::Matrix<double, N, N>& A, const Eigen::Matrix<double, N, 1>& g, double& lambda,
+                    Eigen::Matrix<double, N, 1>& step, TryStep&& tryStep) {
+  const double diag_floor = 1e-15 * A.diagonal().maxCoeff();
+  while (lambda < 1e20) {
+    Eigen::Matrix<double, N, N> M = A;
+    for (int k = 0; k < N; ++k) M(k, k) += lambda * (A(k, k) + diag_floor);
+    step = M.ldlt().solve(-g);
+    if (step.allFinite() && tryStep(step)) {
+      lambda = std::max(lambda / 3, 1e-12);
+      return true;
+    }
+    lambda *= 4;
+  }
+  return false;
+}
+
 struct CylinderState {
   Vector3d a, p;
   double R;
@@ -114,33 +135,20 @@ class CylinderLm {
       }
       const Eigen::Matrix<double, 5, 5> A = J_.transpose() * J_;
       const Eigen::Matrix<double, 5, 1> g = J_.transpose() * r_;
-      const double diag_floor = 1e-15 * A.diagonal().maxCoeff();
-      bool accepted = false;
       Eigen::Matrix<double, 5, 1> step;
-      while (lambda < 1e20) {
-        Eigen::Matrix<double, 5, 5> M = A;
-        for (int k = 0; k < 5; ++k) M(k, k) += lambda * (A(k, k) + diag_floor);
-        step = M.ldlt().solve(-g);
-        if (!step.allFinite()) {
-          lambda *= 4;
-          continue;
-        }
+      const bool accepted = takeDampedStep<5>(A, g, lambda, step, [&](const Eigen::Matrix<double, 5, 1>& d) {
         CylinderState t = s;
-        t.p += step[0] * e1 + step[1] * e2;
-        t.a = (s.a + step[2] * e1 + step[3] * e2).normalized();
-        t.R += step[4];
+        t.p += d[0] * e1 + d[1] * e2;
+        t.a = (s.a + d[2] * e1 + d[3] * e2).normalized();
+        t.R += d[4];
         recentre(t);
         const double c = calcCost(t, r_new);
-        if (c < cost) {
-          s = t;
-          cost = c;
-          r_.swap(r_new);
-          lambda = std::max(lambda / 3, 1e-12);
-          accepted = true;
-          break;
-        }
-        lambda *= 4;
-      }
+        if (!(c < cost)) return false;
+        s = t;
+        cost = c;
+        r_.swap(r_new);
+        return true;
+      });
       if (!accepted) break;  // no direction lowers the cost: converged to rounding
       const double size = std::abs(step[0]) + std::abs(step[1]) + std::abs(step[4]) +
                           length_scale * (std::abs(step[2]) + std::abs(step[3]));
@@ -325,29 +333,16 @@ CircleFit fitCircle(const std::vector<Vector2d>& points, const std::string& sour
     }
     const Eigen::Matrix3d A = J.transpose() * J;
     const Eigen::Vector3d g = J.transpose() * r;
-    const double diag_floor = 1e-15 * A.diagonal().maxCoeff();
-    bool accepted = false;
     Eigen::Vector3d step;
-    while (lambda < 1e20) {
-      Eigen::Matrix3d M = A;
-      for (int k = 0; k < 3; ++k) M(k, k) += lambda * (A(k, k) + diag_floor);
-      step = M.ldlt().solve(-g);
-      if (!step.allFinite()) {
-        lambda *= 4;
-        continue;
-      }
-      Circle t{c.center + step.head<2>(), c.radius + step[2]};
+    const bool accepted = takeDampedStep<3>(A, g, lambda, step, [&](const Eigen::Vector3d& d) {
+      const Circle t{c.center + d.head<2>(), c.radius + d[2]};
       const double ft = cost(t, r_new);
-      if (ft < f) {
-        c = t;
-        f = ft;
-        r.swap(r_new);
-        lambda = std::max(lambda / 3, 1e-12);
-        accepted = true;
-        break;
-      }
-      lambda *= 4;
-    }
+      if (!(ft < f)) return false;
+      c = t;
+      f = ft;
+      r.swap(r_new);
+      return true;
+    });
     if (!accepted) break;
     if (step.cwiseAbs().sum() <= 1e-15 * extent) {
       ++it;
