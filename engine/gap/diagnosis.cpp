@@ -1285,6 +1285,9 @@ GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& 
                    const std::vector<GapTrial>& trials, const DiagnosisOptions& o) {
   const SourceLocation& where = o.fit.where;
   if (trials.empty()) throw InputError(where, "gap diagnosis: expected at least one trial, got none");
+  if (o.cv_folds < 0 || o.cv_folds == 1)
+    throw InputError(where, "gap diagnosis: cv_folds: expected 0 (leave one cycle out) or at least 2 folds, got " +
+                                std::to_string(o.cv_folds));
   GapReport rep;
   rep.law = base.getName();
   rep.law_origin = base.getOrigin();

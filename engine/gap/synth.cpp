@@ -153,10 +153,28 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
   Eigen::VectorXd p = law.getDefaultValues();
   for (const auto& [name, v] : o.base_values) p[base.getParameterIndex(name)] = v;
   for (size_t k = 0; k < o.effects.size(); ++k)
-    for (const auto& [name, v] : o.effects[k].values)
-      p[law.getParameterIndex(o.effects[k].effect + "." + name)] = v;
+    for (const auto& [name, v] : o.effects[k].values) {
+      const int j = law.getParameterIndex(o.effects[k].effect + "." + name);
+      const identify::LawParameter& lp = law.getParameter(j);
+      // Outside its bounds an effect is extrapolated past what its plugin promises, and no fit
+      // could recover it.
+      if (!(v >= lp.lower && v <= lp.upper))
+        throw InputError({}, "synthetic effect " + lp.name + ": expected a value within its bounds [" +
+                                 formatSignificant(lp.lower, 6) + ", " + formatSignificant(lp.upper, 6) + "] " +
+                                 lp.unit + ", got " + formatSignificant(v, 6));
+      p[j] = v;
+    }
   if (o.outside != "" && o.outside != "phase_bump")
     throw InputError({}, "synthetic outside effect: expected '' or 'phase_bump', got '" + o.outside + "'");
+  if (!std::isfinite(o.outside_size))
+    throw InputError({}, "synthetic outside effect: expected a finite size, got " + formatSignificant(o.outside_size, 6));
+  if (!(o.noise_sd >= 0 && std::isfinite(o.noise_sd)) || !(o.white_sd >= 0 && std::isfinite(o.white_sd)))
+    throw InputError({}, "synthetic noise: expected standard deviations >= 0 N, got " +
+                             formatSignificant(o.noise_sd, 6) + " N (smooth) and " + formatSignificant(o.white_sd, 6) +
+                             " N (white)");
+  if (o.replicates < 1)
+    throw InputError({}, "synthetic trials: expected at least 1 replicate per source trial, got " +
+                             std::to_string(o.replicates));
 
   std::mt19937_64 rng(o.seed);
   std::vector<GapTrial> out;
@@ -418,6 +436,7 @@ BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, 
 BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
                                const std::vector<GapTrial>& sources, const BlindSuiteOptions& bo) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (bo.seeds < 1) throw InputError({}, "blind suite: expected at least 1 seed per case, got " + std::to_string(bo.seeds));
   const std::vector<BlindCase> cases = bo.cases.empty() ? getDefaultBlindCases() : bo.cases;
   BlindSuiteResult res;
   for (const auto& e : catalogue) res.columns.push_back(e.getName());

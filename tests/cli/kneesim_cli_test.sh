@@ -108,6 +108,14 @@ expect_error "synth unknown blind case" 1 "--cases: expected blind case names" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases exponent,no_such_case
 expect_error "synth malformed custom case" 1 "--cases: expected name:param=value" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases "exponent:dm"
+expect_error "synth one fold" 1 "--folds: expected 0 (leave one cycle out) or at least 2, got 1" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --folds 1
+expect_error "synth no seeds" 1 "--seeds: expected at least 1, got 0" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --seeds 0
+expect_error "synth negative noise" 1 "--noise: expected a standard deviation >= 0 N, got -1" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --noise -1
+expect_error "synth no replicates" 1 "--replicates: expected at least 1, got 0" \
+  "$exe" synth "$src/share/gap/jw_gap.xml" --replicates 0
 
 # OpenSim's regression case, when the data are here: kneesim run, then compare with OpenSim's answer.
 if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then

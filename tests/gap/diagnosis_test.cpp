@@ -262,6 +262,10 @@ TEST_F(Diagnosis, BadRequestsAreOneLineErrors) {
   EXPECT_THAT(inputErrorOf([&] { diagnose(hertz(), catalogue, trials, o); }),
               HasSubstr("target: expected total, medial or lateral, got 'patellar'"));
   EXPECT_THROW(diagnose(hertz(), catalogue, {}, options()), InputError);
+  o = options();
+  o.cv_folds = 1;  // was taken silently as leave one cycle out
+  EXPECT_THAT(inputErrorOf([&] { diagnose(hertz(), catalogue, trials, o); }),
+              HasSubstr("cv_folds: expected 0 (leave one cycle out) or at least 2 folds, got 1"));
   trials.resize(1);
   trials[0].cycles.resize(1);
   std::fill(trials[0].cycle_index.begin(), trials[0].cycle_index.end(), 0);

@@ -1,12 +1,15 @@
 // NoiseMetric: the synthetic noise's Mahalanobis metric behind the blind suite's best-possible
-// rates (OracleBound), checked against closed forms.
+// rates (OracleBound), checked against closed forms; and what the generator refuses.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
 #include "gap/synth.hpp"
+#include "plugin/registry.hpp"
+#include "support/input_error.hpp"
 
 namespace kneesim::gap {
 namespace {
@@ -55,6 +58,37 @@ TEST(NoiseMetric, SlowDifferencesAreHiddenByTheSmoothNoise) {
   EXPECT_NEAR(d2, expected, 0.25 * expected);
   // Under white noise of the same SD it would be n = 300.
   EXPECT_GT(NoiseMetric(noise(0, 100)).calcSquaredDistance(d, 100), 10 * d2);
+}
+
+// Requests the generator cannot honour are one-line errors before any trial is made (no source
+// trials are needed to get them): an injected value outside its effect's bounds (the plugin's
+// interpolation would be extrapolated, and no fit could recover it), negative noise, no replicates,
+// no seeds.
+TEST(Synth, RequestsOutsideTheirRangesAreOneLineErrors) {
+  using ::testing::HasSubstr;
+  using kneesim::test::inputErrorOf;
+  plugin::Registry reg;
+  reg.loadPlugin("hertz");
+  reg.loadPlugin("gap_effects");
+  const identify::ContactLaw hertz = identify::ContactLaw::fromRegistry(reg, "hertz");
+  const std::vector<Effect> catalogue = {Effect::fromRegistry(reg, "threshold")};
+  SynthOptions o;
+  o.effects = {{"threshold", {{"dh", -0.01}}}};
+  EXPECT_EQ(inputErrorOf([&] { makeSyntheticTrials(hertz, catalogue, {}, o); }),
+            "synthetic effect threshold.dh: expected a value within its bounds [-0.002, 0.002] m, got -0.01");
+  o.effects = {{"threshold", {{"dh", -0.0015}}}};
+  EXPECT_EQ(makeSyntheticTrials(hertz, catalogue, {}, o).size(), 0u);  // in bounds: nothing to refuse
+  o.noise_sd = -1;
+  EXPECT_THAT(inputErrorOf([&] { makeSyntheticTrials(hertz, catalogue, {}, o); }),
+              HasSubstr("synthetic noise: expected standard deviations >= 0 N, got -1 N (smooth)"));
+  o.noise_sd = 100;
+  o.replicates = 0;
+  EXPECT_THAT(inputErrorOf([&] { makeSyntheticTrials(hertz, catalogue, {}, o); }),
+              HasSubstr("expected at least 1 replicate per source trial, got 0"));
+  BlindSuiteOptions bo;
+  bo.seeds = 0;
+  EXPECT_EQ(inputErrorOf([&] { runBlindSuite(hertz, catalogue, {}, bo); }),
+            "blind suite: expected at least 1 seed per case, got 0");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -117,7 +118,14 @@ std::vector<gap::BlindCase> selectCases(const std::string& list) {
 }
 
 void runSynth(const GapCommandState& st, bool quiet) {
-  // Command-line cases first: a typo must not wait for the trials to load.
+  // Command-line values first: a typo must not wait for the trials to load.
+  auto bad = [](const char* option, const std::string& what) { throw InputError({"(command line)", 0, option}, what); };
+  if (!(st.noise >= 0 && std::isfinite(st.noise)))
+    bad("--noise", "expected a standard deviation >= 0 N, got " + formatSignificant(st.noise, 6));
+  if (st.replicates < 1) bad("--replicates", "expected at least 1, got " + std::to_string(st.replicates));
+  if (st.seeds < 1) bad("--seeds", "expected at least 1, got " + std::to_string(st.seeds));
+  if (st.folds < 0 || st.folds == 1)
+    bad("--folds", "expected 0 (leave one cycle out) or at least 2, got " + std::to_string(st.folds));
   const std::vector<gap::BlindCase> cases = st.cases.empty() ? std::vector<gap::BlindCase>{} : selectCases(st.cases);
   gap::GapSetup setup = gap::readGapSetup(st.setup);
   if (!st.trials.empty()) {
@@ -173,7 +181,9 @@ void runSynth(const GapCommandState& st, bool quiet) {
       }
     std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds
               << " seeds per case, " << st.replicates << " replicates of " << sources.size() << " trial(s), noise "
-              << st.noise << " N, " << st.folds << "-fold cross-validation) in " << res.seconds << " s\n";
+              << st.noise << " N, "
+              << (st.folds == 0 ? std::string("leave-one-cycle-out") : std::to_string(st.folds) + "-fold")
+              << " cross-validation) in " << res.seconds << " s\n";
     return;
   }
   std::vector<gap::GapTrial> trials = gap::makeSyntheticTrials(law, catalogue, sources, so);
