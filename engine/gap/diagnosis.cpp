@@ -1281,6 +1281,11 @@ identify::Trial makeTargetTrial(const GapTrial& g, const std::string& target) {
   return t;
 }
 
+std::string findTargetProblem(const std::string& target) {
+  if (target == "total" || target == "medial" || target == "lateral") return "";
+  return "expected total, medial or lateral, got '" + target + "'";
+}
+
 GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
                    const std::vector<GapTrial>& trials, const DiagnosisOptions& o) {
   const SourceLocation& where = o.fit.where;
@@ -1303,8 +1308,8 @@ GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& 
     rep.notes.push_back("INTERIM INPUTS: some contact areas are the interim stand-in derived from the measured force "
                         "(files marked kneesim_interim=true); this is not a real-data result.");
   for (const auto& target : o.targets) {
-    if (target != "total" && target != "medial" && target != "lateral")
-      throw InputError(where, "gap diagnosis: target: expected total, medial or lateral, got '" + target + "'");
+    if (const std::string why = findTargetProblem(target); !why.empty())
+      throw InputError(where, "gap diagnosis: target: " + why);
     Context c;
     c.base = &base;
     c.gap_trials = &trials;

@@ -274,6 +274,10 @@ struct GapReport {
   std::vector<std::string> notes;
 };
 
+/// Empty if @p target names a force the diagnosis can target (total, medial or lateral), else
+/// the reason in "expected X, got Y" form.
+std::string findTargetProblem(const std::string& target);
+
 /// Runs the diagnosis of @p base extended by the effects of @p catalogue on @p trials. Throws
 /// InputError for no trials, fewer than two cycles, unknown targets, or anything identify::fit
 /// refuses in the baseline.

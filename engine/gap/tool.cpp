@@ -108,7 +108,11 @@ GapSetup readGapSetup(const std::string& path) {
   if (xml::Node f = tool.child("free_parameters")) o.fit.free_parameters = f.toWords();
   if (xml::Node a = tool.child("assumed_values")) o.fit.assumed_values = pairs(a);
   if (xml::Node v = tool.child("parameter_values")) o.fit.parameter_values = pairs(v);
-  if (xml::Node t = tool.child("targets")) o.targets = t.toWords();
+  if (xml::Node t = tool.child("targets")) {
+    o.targets = t.toWords();
+    for (const auto& target : o.targets)
+      if (const std::string why = findTargetProblem(target); !why.empty()) t.fail(why);
+  }
   o.fit.body_mass = tool.childDouble("body_mass", 0.0);
   if (!(o.fit.body_mass >= 0)) tool.child("body_mass").fail("expected a mass >= 0 kg");
   auto integer = [&](const char* tag, int fallback, int lo) {

@@ -108,6 +108,8 @@ expect_error "synth unknown blind case" 1 "--cases: expected blind case names" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases exponent,no_such_case
 expect_error "synth malformed custom case" 1 "--cases: expected name:param=value" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --cases "exponent:dm"
+expect_error "gap unknown target" 1 "--targets: expected total, medial or lateral, got 'patellar'" \
+  "$exe" gap "$src/share/gap/jw_gap.xml" --targets total,patellar
 expect_error "synth one fold" 1 "--folds: expected 0 (leave one cycle out) or at least 2, got 1" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --blind-suite --folds 1
 expect_error "synth no seeds" 1 "--seeds: expected at least 1, got 0" \

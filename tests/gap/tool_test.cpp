@@ -80,6 +80,8 @@ TEST(GapTool, SetupErrorsNameTheFileAndElement) {
   expectError("<GapTool><prewhiten_order>12</prewhiten_order><trials/></GapTool>",
               "expected -1 (by BIC), 0 (none) or an order up to 10, got 12");
   expectError("<GapTool><prewhiten_order>-2</prewhiten_order><trials/></GapTool>", "expected an integer >= -1, got -2");
+  expectError("<GapTool><targets>total patellar</targets><trials/></GapTool>",
+              "targets: expected total, medial or lateral, got 'patellar'");
   expectError("<GapTool><cv_folds>1</cv_folds><trials/></GapTool>",
               "cv_folds: expected 0 (leave one cycle out) or at least 2 folds, got 1");
   expectError("<GapTool><assumed_values>nu</assumed_values><trials/></GapTool>", "expected pairs of a parameter name");

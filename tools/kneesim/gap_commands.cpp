@@ -25,7 +25,10 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
   s.gap->add_option("--workflow-results", s.workflow_results,
                     "A KneeContactWorkflow's results folder: each trial reads <dir>/<trial>/<trial>_contact_area.sto");
   s.gap->add_option("-o,--output", s.output, "Results folder (default: the setup's results_directory)");
-  s.gap->add_option("--targets", s.targets, "total, medial and/or lateral (default: the setup's)");
+  s.gap
+      ->add_option("--targets", s.targets,
+                   "total, medial and/or lateral, comma- or space-separated (default: the setup's)")
+      ->delimiter(',');
   s.gap->add_option("--trials", s.trials, "Comma-separated trial names of the setup to use (default: all)");
   s.gap->add_flag("--no-plots", s.no_plots, "Do not run gnuplot");
 
@@ -208,6 +211,9 @@ void runSynth(const GapCommandState& st, bool quiet) {
 
 void runGapCommand(const GapCommandState& st, bool quiet) {
   if (st.synth && *st.synth) return runSynth(st, quiet);
+  for (const auto& target : st.targets)
+    if (const std::string why = gap::findTargetProblem(target); !why.empty())
+      throw InputError({"(command line)", 0, "--targets"}, why);
   gap::GapSetup setup = gap::readGapSetup(st.setup);
   if (!st.trials.empty()) selectTrials(setup, st.trials);
   if (!st.workflow_results.empty()) gap::setWorkflowResults(setup, st.workflow_results);
