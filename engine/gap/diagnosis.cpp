@@ -1120,6 +1120,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     current = std::move(models[best]);
   }
   d.selected = chosen;
+  d.undecided = findUndecided(d.candidates, static_cast<int>(chosen.size()) + 1, o.min_relative_improvement);
   d.final_law = current.law.getName();
   d.final_fit = current.fit;
 
@@ -1151,6 +1152,15 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     d.verdict_text = "The gap is explained by " + sel + ": withheld error " + fmt(d.baseline_rmse_heldout, 4) +
                      " N -> " + fmt(std::sqrt(current.cvMse(c.units)), 4) + " N, and no systematic structure remains (" +
                      evidence + ").";
+  }
+  if (!d.undecided.effect.empty()) {
+    const UndecidedCandidate& u = d.undecided;
+    d.verdict_text += " Undecided at step " + std::to_string(u.step) + ": " + u.effect + " removes " +
+                      fmt(100 * u.reduction, 3) + " % of the withheld error, but not significantly (one-sided lower bound " +
+                      fmt(100 * u.lower, 3) + " %; prewhitened " + fmt(100 * u.whitened, 3) + " %, bound " +
+                      fmt(100 * u.whitened_lower, 3) + " %). If that reduction and its spread over cycles held, about " +
+                      std::to_string(u.cycles_needed) + " cycles (instead of " + std::to_string(u.cycles) +
+                      ") would make it significant.";
   }
   if (!d.untestable.empty() && d.structure.significant)
     d.verdict_text += " Not testable on these inputs: " + join(d.untestable, "; ") + ".";
@@ -1279,6 +1289,29 @@ identify::Trial makeTargetTrial(const GapTrial& g, const std::string& target) {
   for (const auto& [name, v] : g.trial.channels)
     if (startsWith(name, "S@")) remap(name, "S_" + side + name.substr(1));
   return t;
+}
+
+UndecidedCandidate findUndecided(const std::vector<CandidateFit>& candidates, int step, double min_improvement) {
+  UndecidedCandidate u;
+  const CandidateFit* best = nullptr;
+  for (const auto& c : candidates) {
+    if (c.step != step) continue;
+    if (c.accepted) return u;  // the step added an effect: nothing was left undecided by it
+    if (c.converged && c.relative_improvement >= min_improvement && !(c.one_sided_lower > 0) &&
+        (!best || c.one_sided_lower > best->one_sided_lower))
+      best = &c;
+  }
+  if (!best || !(best->reduction.mean > 0) || best->reduction.n < 2) return u;
+  u.effect = best->effect;
+  u.step = step;
+  u.reduction = best->relative_improvement;
+  u.lower = best->one_sided_lower;
+  u.whitened = best->whitened_improvement;
+  u.whitened_lower = best->whitened_one_sided_lower;
+  u.cycles = best->reduction.n;
+  const double ratio = (best->reduction.mean - best->one_sided_lower) / best->reduction.mean;
+  u.cycles_needed = static_cast<int>(std::ceil(u.cycles * ratio * ratio));
+  return u;
 }
 
 std::string findTargetProblem(const std::string& target) {

@@ -235,6 +235,23 @@ struct TrialSeries {
 };
 
 /// The diagnosis of one target (total, medial or lateral force).
+/// The candidate that came closest to being added where the selection stopped: it removes at least
+/// min_relative_improvement of the withheld error, but its one-sided lower bound is not above zero.
+/// cycles_needed is what data would decide it: the cycles that would lift that bound to zero if the
+/// reduction and its spread from cycle to cycle held, n ((mean - lower) / mean)^2 at the same t.
+struct UndecidedCandidate {
+  std::string effect;  ///< Empty: no candidate came that close.
+  int step = 0;
+  double reduction = 0, lower = 0;                ///< CandidateFit::relative_improvement, one_sided_lower.
+  double whitened = 0, whitened_lower = 0;        ///< The same of the prewhitened errors.
+  int cycles = 0, cycles_needed = 0;
+};
+
+/// The UndecidedCandidate among @p candidates fitted at @p step (the step where the selection
+/// stopped): the one with the highest lower bound among those removing at least @p min_improvement
+/// without significance; none if the step added an effect or no candidate qualifies.
+UndecidedCandidate findUndecided(const std::vector<CandidateFit>& candidates, int step, double min_improvement);
+
 struct TargetDiagnosis {
   std::string target;
   identify::FitReport baseline;   ///< Baseline fitted on all cycles.
@@ -249,6 +266,7 @@ struct TargetDiagnosis {
   std::vector<CandidateFit> candidates;           ///< Every full fit, in step order.
   std::vector<std::string> selected;              ///< Accepted effects in order.
   std::vector<ConfusablePair> confusable;
+  UndecidedCandidate undecided;
   StructureTest structure;
   std::string verdict;            ///< "baseline", "none of the candidates", or the selected effects joined by " + ".
   std::string verdict_text;       ///< One paragraph.

@@ -105,6 +105,19 @@ json toJson(const GapReport& r, const Anchors& a) {
     t["verdict"] = d.verdict;
     t["verdict_text"] = d.verdict_text;
     t["selected"] = d.selected;
+    if (d.undecided.effect.empty()) {
+      t["undecided"] = nullptr;
+    } else {
+      const UndecidedCandidate& u = d.undecided;
+      t["undecided"] = {{"effect", u.effect},
+                        {"step", u.step},
+                        {"relative_mse_reduction", num(u.reduction)},
+                        {"relative_mse_reduction_one_sided_lower", num(u.lower)},
+                        {"prewhitened_relative_mse_reduction", num(u.whitened)},
+                        {"prewhitened_relative_mse_reduction_one_sided_lower", num(u.whitened_lower)},
+                        {"cycles", u.cycles},
+                        {"cycles_needed", u.cycles_needed}};
+    }
     t["final_law"] = d.final_law;
     t["baseline"] = identify::toJson(d.baseline);
     t["baseline_heldout_rmse_N"] = num(d.baseline_rmse_heldout);

@@ -147,6 +147,7 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   ASSERT_GE(j["targets"][0]["candidates"].size(), 1u);
   EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction"));
   EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction_one_sided_lower"));
+  EXPECT_TRUE(j["targets"][0].contains("undecided"));  // null when no candidate was left undecided
   const std::string md = readFileText(dir + "/out/gap_report.md");
   EXPECT_THAT(md, ::testing::Not(HasSubstr("INTERIM")));
   EXPECT_THAT(md, HasSubstr("winners' RMS errors 229-326 N per compartment"));
