@@ -368,10 +368,10 @@ std::string BlindSuiteResult::formatMarkdown() const {
   };
   s << "| injected \\ named first |";
   for (const auto& c : columns) s << " " << shortName(c) << " |";
-  s << " correct | correct or reported confusable | RMS change (N) | left after refit (N) | size in CI (jackknife / "
+  s << " correct | correct or reported confusable | baseline, injected effect undecided | RMS change (N) | left after refit (N) | size in CI (jackknife / "
        "asymptotic) | closest rival: unmimicked RMS (N), D | best possible |\n|---|";
   for (size_t k = 0; k < columns.size(); ++k) s << "---:|";
-  s << "---:|---:|---:|---:|---|---|---:|\n";
+  s << "---:|---:|---:|---:|---:|---|---|---:|\n";
   for (size_t r = 0; r < rows.size(); ++r) {
     const auto e = expected.find(rows[r]);
     const bool hidden = e != expected.end() && e->second == "baseline" && rows[r] != "nothing";
@@ -381,11 +381,12 @@ std::string BlindSuiteResult::formatMarkdown() const {
       s << " " << (n ? std::to_string(n) : std::string(".")) << " |";
     }
     const auto outs = getOutcomes(rows[r]);
-    int ok = 0, okc = 0, est = 0, cj = 0, ca = 0;
+    int ok = 0, okc = 0, und = 0, est = 0, cj = 0, ca = 0;
     std::vector<double> rms;
     for (const auto* o : outs) {
       ok += o->correct;
       okc += o->correct_or_confusable;
+      und += o->answer == "baseline" && o->expected != "baseline" && o->undecided == o->expected;
       rms.push_back(o->injected_rms);
       if (o->has_estimate) ++est, cj += o->covered_jackknife, ca += o->covered;
     }
@@ -397,7 +398,11 @@ std::string BlindSuiteResult::formatMarkdown() const {
     std::ostringstream vis;
     vis.precision(3);
     vis << (v == visible_rms.end() ? 0.0 : v->second);
-    s << " " << ok << "/" << outs.size() << " | " << okc << "/" << outs.size() << " | " << med.str() << " | " << vis.str() << " | ";
+    s << " " << ok << "/" << outs.size() << " | " << okc << "/" << outs.size() << " | "
+      << (e != expected.end() && e->second != "baseline" && e->second != "none of the candidates"
+              ? std::to_string(und)
+              : std::string("-"))
+      << " | " << med.str() << " | " << vis.str() << " | ";
     if (est) s << cj << "/" << est << " / " << ca << "/" << est;
     else s << "-";
     const auto ob = oracle.find(rows[r]);
@@ -515,6 +520,7 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
     out.correct_or_confusable =
         out.correct || std::find(out.confusable_with_answer.begin(), out.confusable_with_answer.end(), out.expected) !=
                            out.confusable_with_answer.end();
+    out.undecided = d.undecided.effect;
     for (size_t step = 0; step < d.screening.size(); ++step) {
       std::string line = "step " + std::to_string(step + 1) + ": screened";
       for (size_t k = 0; k < d.screening[step].size() && k < 5; ++k)

@@ -123,6 +123,9 @@ struct BlindOutcome {
   std::vector<std::string> confusable_with_answer;
   /// The answer is right, or the diagnosis reported it confusable with the injected effect.
   bool correct_or_confusable = false;
+  /// TargetDiagnosis::undecided's effect (empty: none); with the answer "baseline" and this the
+  /// injected effect, the diagnosis said what it suspected and what data would decide it.
+  std::string undecided;
   double injected_rms = 0;   ///< RMS force change the injected component makes on the noise-free trials, N.
   double rmse_baseline = 0;  ///< Held-out RMSE of the baseline, N.
   double rmse_final = 0;     ///< Held-out RMSE of the selected model, N.
