@@ -108,11 +108,15 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // withheld error is not significantly worse than it and whose prewhitened one is significantly
   // lower, from 16 to 17 (13 -> 16 and 12 -> 16 on two other sets of 20 seeds). Its remaining
   // misses here: no candidate significant (2 of 20), radius_flexion named (1).
+  // What the diagnosis says of the injected effect, counted generously: named first, reported
+  // confusable with the answer, or -- when the answer is "baseline" -- named as the candidate left
+  // undecided with the cycles that would decide it. 18 of 20 everywhere.
   struct Demand {
-    int named_first = 18, named_or_confusable = 18;
+    int named_first = 18, named_or_confusable = 18, named_confusable_or_undecided = 18;
   };
   const std::map<std::string, Demand> weaker{
-      {"threshold", {16, 17}},  // observed 17 / 20 named first, 18 / 20 named or confusable
+      // observed 17 / 20 named first, 18 / 20 named or confusable, 19 / 20 with undecided
+      {"threshold", {16, 17, 18}},
   };
   // Every visible single-effect case has its best-possible rate against its closest rival.
   for (const auto& bc : getDefaultBlindCases()) {
@@ -135,10 +139,11 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   }
   for (const auto& row : res.rows) {
     const auto outs = res.getOutcomes(row);
-    int ok = 0, okc = 0, est = 0, cov = 0, cov_jack = 0;
+    int ok = 0, okc = 0, said = 0, est = 0, cov = 0, cov_jack = 0;
     for (const auto* o : outs) {
       ok += o->correct;
       okc += o->correct_or_confusable;
+      said += o->correct_or_confusable || (o->answer == "baseline" && o->undecided == o->expected);
       if (o->has_estimate) ++est, cov += o->covered, cov_jack += o->covered_jackknife;
     }
     SCOPED_TRACE(row);
@@ -147,6 +152,7 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     const double scale = outs.size() / 20.0;
     EXPECT_GE(ok, demand.named_first * scale);
     EXPECT_GE(okc, demand.named_or_confusable * scale);
+    EXPECT_GE(said, demand.named_confusable_or_undecided * scale);
     // The injected size lies in its 95 % intervals about as often as it should, where the effect is
     // visible (an absorbed effect's size is not identifiable: its expected answer is the baseline).
     // Observed: asymptotic 18-20 of 20 (all cases); jackknife over the 5 folds 13/19 (threshold) to
