@@ -1155,12 +1155,12 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
   }
   if (!d.undecided.effect.empty()) {
     const UndecidedCandidate& u = d.undecided;
-    d.verdict_text += " Undecided at step " + std::to_string(u.step) + ": " + u.effect + " removes " +
-                      fmt(100 * u.reduction, 3) + " % of the withheld error, but not significantly (one-sided lower bound " +
-                      fmt(100 * u.lower, 3) + " %; prewhitened " + fmt(100 * u.whitened, 3) + " %, bound " +
-                      fmt(100 * u.whitened_lower, 3) + " %). If that reduction and its spread over cycles held, about " +
-                      std::to_string(u.cycles_needed) + " cycles (instead of " + std::to_string(u.cycles) +
-                      ") would make it significant.";
+    d.verdict_text +=
+        " Undecided at step " + std::to_string(u.step) + ": " + u.effect + " removes " + fmt(100 * u.reduction, 3) +
+        " % of the withheld error, but not significantly (one-sided lower bound " + fmt(100 * u.lower, 3) +
+        " %; prewhitened " + fmt(100 * u.whitened, 3) + " %, bound " + fmt(100 * u.whitened_lower, 3) +
+        " %). If that reduction and its spread over cycles held, about " + std::to_string(u.cycles_needed) +
+        " cycles (instead of " + std::to_string(u.cycles) + ") would make it significant.";
   }
   if (!d.untestable.empty() && d.structure.significant)
     d.verdict_text += " Not testable on these inputs: " + join(d.untestable, "; ") + ".";

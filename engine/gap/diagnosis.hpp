@@ -171,7 +171,7 @@ struct CandidateFit {
   /// cycles - 1 dof): > 0 is the significance the selection asks of an effect.
   double one_sided_lower = 0;
   /// relative_improvement of the prewhitened held-out residuals (DiagnosisOptions::prewhiten_order):
-  /// what chooses among the eligible candidates of a step (DiagnosisOptions::prewhiten_order).
+  /// what chooses among the eligible candidates of a step.
   double whitened_improvement = 0;
   /// whitened_improvement's lower bound, as one_sided_lower is relative_improvement's. Reported, not
   /// a criterion on its own: prewhitened errors weigh the fast part of a force change, which the smooth
@@ -234,7 +234,6 @@ struct TrialSeries {
   std::vector<int> cycle;
 };
 
-/// The diagnosis of one target (total, medial or lateral force).
 /// The candidate that came closest to being added where the selection stopped: it removes at least
 /// min_relative_improvement of the withheld error, but its one-sided lower bound is not above zero.
 /// cycles_needed is what data would decide it: the cycles that would lift that bound to zero if the
@@ -242,8 +241,8 @@ struct TrialSeries {
 struct UndecidedCandidate {
   std::string effect;  ///< Empty: no candidate came that close.
   int step = 0;
-  double reduction = 0, lower = 0;                ///< CandidateFit::relative_improvement, one_sided_lower.
-  double whitened = 0, whitened_lower = 0;        ///< The same of the prewhitened errors.
+  double reduction = 0, lower = 0;          ///< CandidateFit::relative_improvement, one_sided_lower.
+  double whitened = 0, whitened_lower = 0;  ///< The same of the prewhitened errors.
   int cycles = 0, cycles_needed = 0;
 };
 
@@ -252,6 +251,7 @@ struct UndecidedCandidate {
 /// without significance; none if the step added an effect or no candidate qualifies.
 UndecidedCandidate findUndecided(const std::vector<CandidateFit>& candidates, int step, double min_improvement);
 
+/// The diagnosis of one target (total, medial or lateral force).
 struct TargetDiagnosis {
   std::string target;
   identify::FitReport baseline;   ///< Baseline fitted on all cycles.

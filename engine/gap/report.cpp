@@ -177,9 +177,8 @@ json toJson(const GapReport& r, const Anchors& a) {
                        {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)},
                        {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)},
                        {"prewhitened_relative_mse_reduction_one_sided_lower", num(c.whitened_one_sided_lower)},
-                       {"d_aic", num(c.d_aic)},
-                       {"d_bic", num(c.d_bic)}, {"parameters", ps}, {"accepted", c.accepted},
-                       {"decision", c.decision}, {"notes", c.notes}});
+                       {"d_aic", num(c.d_aic)}, {"d_bic", num(c.d_bic)}, {"parameters", ps},
+                       {"accepted", c.accepted}, {"decision", c.decision}, {"notes", c.notes}});
     }
     t["candidates"] = cands;
     t["prewhitening_ar"] = d.prewhitening;
@@ -292,8 +291,9 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       for (double v : d.prewhitening) s << " " << fixed(v, 3);
       s << ".";
     }
-    s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened (lower bound) | log ratio [95 % CI] | dAIC | "
-         "dBIC | parameters | decision |\n|---:|---|---:|---:|---:|---|---:|---:|---|---|\n";
+    s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened (lower bound) | "
+         "log ratio [95 % CI] | dAIC | dBIC | parameters | decision |\n"
+         "|---:|---|---:|---:|---:|---|---:|---:|---|---|\n";
     for (const auto& c : d.candidates) {
       std::string ps;
       for (const auto& p : c.parameters)
@@ -302,9 +302,9 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
               fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
       s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
         << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << pct(c.whitened_improvement)
-        << " (" << pct(c.whitened_one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
-        << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
-        << ps << " | " << c.decision << " |\n";
+        << " (" << pct(c.whitened_one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " ["
+        << fixed(c.log_ratio.lower, 3) << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | "
+        << fixed(c.d_bic, 1) << " | " << ps << " | " << c.decision << " |\n";
     }
     s << "\n";
     if (!d.confusable.empty()) {

@@ -167,14 +167,15 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
   if (o.outside != "" && o.outside != "phase_bump")
     throw InputError({}, "synthetic outside effect: expected '' or 'phase_bump', got '" + o.outside + "'");
   if (!std::isfinite(o.outside_size))
-    throw InputError({}, "synthetic outside effect: expected a finite size, got " + formatSignificant(o.outside_size, 6));
+    throw InputError({},
+                     "synthetic outside effect: expected a finite size, got " + formatSignificant(o.outside_size, 6));
   if (!(o.noise_sd >= 0 && std::isfinite(o.noise_sd)) || !(o.white_sd >= 0 && std::isfinite(o.white_sd)))
     throw InputError({}, "synthetic noise: expected standard deviations >= 0 N, got " +
                              formatSignificant(o.noise_sd, 6) + " N (smooth) and " + formatSignificant(o.white_sd, 6) +
                              " N (white)");
   if (o.replicates < 1)
-    throw InputError({}, "synthetic trials: expected at least 1 replicate per source trial, got " +
-                             std::to_string(o.replicates));
+    throw InputError(
+        {}, "synthetic trials: expected at least 1 replicate per source trial, got " + std::to_string(o.replicates));
 
   std::mt19937_64 rng(o.seed);
   std::vector<GapTrial> out;
@@ -368,8 +369,9 @@ std::string BlindSuiteResult::formatMarkdown() const {
   };
   s << "| injected \\ named first |";
   for (const auto& c : columns) s << " " << shortName(c) << " |";
-  s << " correct | correct or reported confusable | baseline, injected effect undecided | RMS change (N) | left after refit (N) | size in CI (jackknife / "
-       "asymptotic) | closest rival: unmimicked RMS (N), D | best possible |\n|---|";
+  s << " correct | correct or reported confusable | baseline, injected effect undecided | RMS change (N) | "
+       "left after refit (N) | size in CI (jackknife / asymptotic) | closest rival: unmimicked RMS (N), D | "
+       "best possible |\n|---|";
   for (size_t k = 0; k < columns.size(); ++k) s << "---:|";
   s << "---:|---:|---:|---:|---:|---|---|---:|\n";
   for (size_t r = 0; r < rows.size(); ++r) {
@@ -399,9 +401,8 @@ std::string BlindSuiteResult::formatMarkdown() const {
     vis.precision(3);
     vis << (v == visible_rms.end() ? 0.0 : v->second);
     s << " " << ok << "/" << outs.size() << " | " << okc << "/" << outs.size() << " | "
-      << (e != expected.end() && e->second != "baseline" && e->second != "none of the candidates"
-              ? std::to_string(und)
-              : std::string("-"))
+      << (e != expected.end() && e->second != "baseline" && e->second != "none of the candidates" ? std::to_string(und)
+                                                                                                  : std::string("-"))
       << " | " << med.str() << " | " << vis.str() << " | ";
     if (est) s << cj << "/" << est << " / " << ca << "/" << est;
     else s << "-";
@@ -441,7 +442,8 @@ BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, 
 BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
                                const std::vector<GapTrial>& sources, const BlindSuiteOptions& bo) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (bo.seeds < 1) throw InputError({}, "blind suite: expected at least 1 seed per case, got " + std::to_string(bo.seeds));
+  if (bo.seeds < 1)
+    throw InputError({}, "blind suite: expected at least 1 seed per case, got " + std::to_string(bo.seeds));
   const std::vector<BlindCase> cases = bo.cases.empty() ? getDefaultBlindCases() : bo.cases;
   BlindSuiteResult res;
   for (const auto& e : catalogue) res.columns.push_back(e.getName());
@@ -532,8 +534,8 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
                   formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
                   formatSignificant(100 * cf.whitened_improvement, 3) + "% (lb " +
-                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), dBIC " + formatSignificant(cf.d_bic, 3) +
-                  formatParameters(cf.parameters) +
+                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), dBIC " +
+                  formatSignificant(cf.d_bic, 3) + formatParameters(cf.parameters) +
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }

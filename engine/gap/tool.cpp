@@ -130,8 +130,7 @@ GapSetup readGapSetup(const std::string& path) {
     return v;
   };
   o.cv_folds = integer("cv_folds", 0, 0);
-  if (o.cv_folds == 1)
-    tool.child("cv_folds").fail("expected 0 (leave one cycle out) or at least 2 folds, got 1");
+  if (o.cv_folds == 1) tool.child("cv_folds").fail("expected 0 (leave one cycle out) or at least 2 folds, got 1");
   o.screen_top = integer("screen_top", o.screen_top, 1);
   o.max_effects = integer("max_effects", o.max_effects, 0);
   o.prewhiten_order = integer("prewhiten_order", o.prewhiten_order, -1);

@@ -205,7 +205,6 @@ std::string joinNames(const std::vector<std::string>& v) {
   return s;
 }
 
-
 // The free parameters f but f[held] (a solve with that one held): their indices into rest, their
 // start values from p into y0, their bounds and scales into lo (replacing lo's).
 void holdOneOut(const ContactLaw& law, const std::vector<int>& f, int held, const Eigen::VectorXd& p,

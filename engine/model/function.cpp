@@ -46,7 +46,6 @@ int searchInterval(const std::vector<double>& x, double xv) {
   return k;
 }
 
-
 // OpenSim's rule outside and on the ends of the knots x: linear extrapolation with the end
 // slopes b, and the end values on the ends (within rounding). Sets v and returns true there;
 // false inside, where the function's own interval formula applies.

@@ -177,8 +177,8 @@ enum { kPelvis, kFemur, kFemoral, kTray, kTibia, kPatella, kTalus, kCalcaneus, k
 // translations along -x, y and -z.
 void setKneeAxes(model::Joint& j, const int c[6]) {
   j.coordinates.assign(c, c + 6);
-  const Vector3d axes[6] = {Vector3d(0, 0, 1), Vector3d(-1, 0, 0), Vector3d(0, 1, 0),
-                            Vector3d(-1, 0, 0), Vector3d(0, 1, 0), Vector3d(0, 0, -1)};
+  const Vector3d axes[6] = {Vector3d(0, 0, 1),  Vector3d(-1, 0, 0), Vector3d(0, 1, 0),
+                            Vector3d(-1, 0, 0), Vector3d(0, 1, 0),  Vector3d(0, 0, -1)};
   for (int a = 0; a < 6; ++a) {
     j.spatial[a].axis = axes[a];
     j.spatial[a].coordinates = {c[a]};

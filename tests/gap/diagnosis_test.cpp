@@ -290,8 +290,8 @@ TEST(Undecided, TheClosestNonSignificantCandidateAndTheCyclesThatWouldDecideIt) 
     c.whitened_one_sided_lower = 0.05;
     return c;
   };
-  const std::vector<CandidateFit> step1 = {fit("a", 1, 0.08, -0.02), fit("b", 1, 0.15, -0.06), fit("c", 1, 0.03, -0.001),
-                                           fit("d", 1, 0.10, 0.01)};
+  const std::vector<CandidateFit> step1 = {fit("a", 1, 0.08, -0.02), fit("b", 1, 0.15, -0.06),
+                                           fit("c", 1, 0.03, -0.001), fit("d", 1, 0.10, 0.01)};
   const UndecidedCandidate u = findUndecided(step1, 1, 0.05);
   EXPECT_EQ(u.effect, "a");  // c removes under 5 %, d is significant, b's bound is lower
   EXPECT_EQ(u.step, 1);

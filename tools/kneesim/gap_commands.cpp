@@ -182,9 +182,9 @@ void runSynth(const GapCommandState& st, bool quiet) {
                   << (out.correct ? " (right)" : " (wrong)") << "\n";
         for (const auto& line : out.trace) std::cout << "  " << line << "\n";
       }
-    std::cout << res.formatMarkdown() << "\n" << res.outcomes.size() << " blind diagnoses (" << st.seeds
-              << " seeds per case, " << st.replicates << " replicates of " << sources.size() << " trial(s), noise "
-              << st.noise << " N, "
+    std::cout << res.formatMarkdown() << "\n"
+              << res.outcomes.size() << " blind diagnoses (" << st.seeds << " seeds per case, " << st.replicates
+              << " replicates of " << sources.size() << " trial(s), noise " << st.noise << " N, "
               << (st.folds == 0 ? std::string("leave-one-cycle-out") : std::to_string(st.folds) + "-fold")
               << " cross-validation) in " << res.seconds << " s\n";
     return;
