@@ -464,9 +464,10 @@ CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, i
   cf.reduction = relativeReductionInterval(current.unit_sse, out.unit_sse, c.o->level);
   const int nu = cf.reduction.n;
   const double t = studentQuantile(1 - c.o->alpha / std::max(1, n_candidates), std::max(1, nu - 1));
-  cf.one_sided_lower = cf.reduction.mean - t * cf.reduction.sd / std::sqrt(std::max(1, nu));
-  const MeanInterval wr = relativeReductionInterval(current.unit_wsse, out.unit_wsse, c.o->level);
-  cf.whitened_one_sided_lower = wr.mean - t * wr.sd / std::sqrt(std::max(1, wr.n));
+  auto oneSidedLower = [t](const MeanInterval& m) { return m.mean - t * m.sd / std::sqrt(std::max(1, m.n)); };
+  cf.one_sided_lower = oneSidedLower(cf.reduction);
+  cf.whitened_one_sided_lower =
+      oneSidedLower(relativeReductionInterval(current.unit_wsse, out.unit_wsse, c.o->level));
   const double nfr = std::max(2.0, current.fit.effective_frames);
   int ke = 0;
   std::vector<int> ecols;
@@ -955,8 +956,9 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     // error is not significantly worse than the gate's while their prewhitened error is significantly
     // lower (two-sided intervals of the relative reduction of the pooled MSE over cycles), by the
     // prewhitened errors: they weigh the fast differences between rivals, which the smooth gap does
-    // not hide, where raw squared errors are dominated by the slow ones, which it does. A larger effect whose reduction varies more from cycle to cycle (the
-    // proximity threshold acts most on a few loud cycles) otherwise lost to a smaller, steadier rival.
+    // not hide, where raw squared errors are dominated by the slow ones, which it does. A larger
+    // effect whose reduction varies more from cycle to cycle (the proximity threshold acts most on a
+    // few loud cycles) otherwise lost to a smaller, steadier rival.
     int significant = -1;  // the gate
     for (size_t k = 0; k < fits.size(); ++k)
       if (fits[k].converged && fits[k].one_sided_lower > 0 &&
@@ -1047,9 +1049,9 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       else if (f.one_sided_lower > 0 || significant < 0)
         how = whitened + " among the significant ones";
       else
-        how = whitened + ", significantly lower in prewhitened error than " + fits[significant].effect +
-              " and not significantly worse in raw error, where " + fits[significant].effect +
-              "'s improvement is significant (its own lower bound " + fmt(100 * f.one_sided_lower, 3) + " %)";
+        how = whitened + ", not significant on its own (lower bound " + fmt(100 * f.one_sided_lower, 3) +
+              " %) but significantly lower in prewhitened error than " + fits[significant].effect +
+              ", whose improvement is significant, and not significantly worse in raw error";
       f.decision = accept ? "selected: " + how + ", dBIC " + fmt(f.d_bic, 3) : "not selected: " + join(why, "; ");
     }
     for (size_t k = 0; k < fits.size(); ++k)
