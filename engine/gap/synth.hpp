@@ -105,7 +105,8 @@ struct BlindCase {
   std::string outside;       ///< A force component outside the catalogue (SynthOptions::outside).
   double outside_size = 0;
   /// The right answer: an effect name, "baseline" or "none of the candidates". runBlindSuite turns
-  /// an effect's expectation into "baseline" when the baseline absorbs it (BlindSuiteOptions::visible_floor).
+  /// an effect's expectation into "baseline" when the baseline absorbs it (BlindSuiteOptions::visible_floor);
+  /// naming the absorbed effect itself is then right too (isRightAnswer).
   std::string expected;
 };
 
@@ -113,12 +114,18 @@ struct BlindCase {
 /// is comparable to the noise, and a force bump locked to the cycle (outside the catalogue).
 std::vector<BlindCase> getDefaultBlindCases();
 
+/// Whether @p answer (an effect, "baseline" or "none of the candidates") is right for a case
+/// whose right answer is @p expected and into which @p injected was put. Where the baseline absorbs
+/// the injected effects (@p expected is "baseline" although something is injected), naming one of
+/// them is right too: it is there, so naming it is no false claim; naming any other effect is wrong.
+bool isRightAnswer(const std::string& answer, const std::string& expected, const std::vector<InjectedEffect>& injected);
+
 /// One blind diagnosis.
 struct BlindOutcome {
   std::string case_name, expected;
   unsigned long long seed = 0;
   std::string answer;        ///< The first selected effect, "baseline" or "none of the candidates".
-  bool correct = false;
+  bool correct = false;  ///< isRightAnswer: the expected answer or, for an absorbed effect, that effect.
   /// Effects the diagnosis reported as confusable with its answer (pairs it could not tell apart).
   std::vector<std::string> confusable_with_answer;
   /// The answer is right, or the diagnosis reported it confusable with the injected effect.

@@ -91,5 +91,23 @@ TEST(Synth, RequestsOutsideTheirRangesAreOneLineErrors) {
             "blind suite: expected at least 1 seed per case, got 0");
 }
 
+// What counts as a right answer in the blind suite. A visible effect must be named; nothing
+// injected must give the baseline; the outside bump must give "none". An absorbed effect (its right
+// answer turned into "baseline") may also be named itself -- it is there -- but no other effect may.
+TEST(Synth, AnAbsorbedEffectMayBeNamedButNoOtherEffect) {
+  const std::vector<InjectedEffect> gain = {{"flexion_gain", {{"gain", 0.2}}}};
+  EXPECT_TRUE(isRightAnswer("threshold", "threshold", {{"threshold", {{"dh", -0.0015}}}}));
+  EXPECT_FALSE(isRightAnswer("baseline", "threshold", {{"threshold", {{"dh", -0.0015}}}}));
+  EXPECT_FALSE(isRightAnswer("flexion_gain", "threshold", {{"threshold", {{"dh", -0.0015}}}}));
+  EXPECT_TRUE(isRightAnswer("baseline", "baseline", gain));
+  EXPECT_TRUE(isRightAnswer("flexion_gain", "baseline", gain));
+  EXPECT_FALSE(isRightAnswer("threshold", "baseline", gain));
+  EXPECT_FALSE(isRightAnswer("none of the candidates", "baseline", gain));
+  EXPECT_TRUE(isRightAnswer("baseline", "baseline", {}));
+  EXPECT_FALSE(isRightAnswer("flexion_gain", "baseline", {}));
+  EXPECT_TRUE(isRightAnswer("none of the candidates", "none of the candidates", {}));
+  EXPECT_FALSE(isRightAnswer("baseline", "none of the candidates", {}));
+}
+
 }  // namespace
 }  // namespace kneesim::gap
