@@ -273,9 +273,7 @@ TEST_P(DistanceProviders, JwInsertAgainstFemoralComponentMatchesMeshDistance) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
   const JwImplant jw = loadJwImplant();
-  const io::TriangleMesh& fem = jw.fem;
-  const SeatingSetup& setup = jw.setup;
-  const std::vector<Vector3d>& pts = jw.pts;
+  const auto& [fem, ins, setup, pts] = jw;
   Seater seater(setup);
   const std::vector<SeatingResult> seats = seater.calcHingeKinematics({0.0, 20 * kDegree, 45 * kDegree});
   const MeshDistance exact(fem);
@@ -313,9 +311,7 @@ TEST(DistanceFcl, PacketAndScalarSearchesAgreeOnJw) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
   const JwImplant jw = loadJwImplant();
-  const io::TriangleMesh& fem = jw.fem;
-  const SeatingSetup& setup = jw.setup;
-  const std::vector<Vector3d>& pts = jw.pts;
+  const auto& [fem, ins, setup, pts] = jw;
   const std::vector<SeatingResult> seats = Seater(setup).calcHingeKinematics({0.0, 10 * kDegree, 30 * kDegree});
   const kneesim_distance_provider& fcl = loadProvider(reg);
   DistanceField packets(fcl, fem, pts);
@@ -457,10 +453,7 @@ TEST(DistanceFclSdf, JwMatchesMeshDistanceAndContactAreaWithinTolerance) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   plugin::Registry reg;
   const JwImplant jw = loadJwImplant();
-  const io::TriangleMesh& fem = jw.fem;
-  const io::TriangleMesh& ins = jw.ins;
-  const SeatingSetup& setup = jw.setup;
-  const std::vector<Vector3d>& pts = jw.pts;
+  const auto& [fem, ins, setup, pts] = jw;
   const std::vector<SeatingResult> seats = Seater(setup).calcHingeKinematics({0.0, 20 * kDegree, 45 * kDegree});
   const MeshDistance exact(fem);
   DistanceField field(loadProvider(reg, "fcl_sdf"), fem, pts);
