@@ -362,7 +362,8 @@ std::vector<const BlindOutcome*> BlindSuiteResult::getOutcomes(const std::string
   return v;
 }
 
-bool isRightAnswer(const std::string& answer, const std::string& expected, const std::vector<InjectedEffect>& injected) {
+bool isRightAnswer(const std::string& answer, const std::string& expected,
+                   const std::vector<InjectedEffect>& injected) {
   if (answer == expected) return true;
   if (expected != "baseline") return false;
   return std::any_of(injected.begin(), injected.end(), [&](const InjectedEffect& e) { return e.effect == answer; });

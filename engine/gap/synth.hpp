@@ -125,7 +125,7 @@ struct BlindOutcome {
   std::string case_name, expected;
   unsigned long long seed = 0;
   std::string answer;        ///< The first selected effect, "baseline" or "none of the candidates".
-  bool correct = false;  ///< isRightAnswer: the expected answer or, for an absorbed effect, that effect.
+  bool correct = false;      ///< isRightAnswer: the expected answer or, for an absorbed effect, that effect.
   /// Effects the diagnosis reported as confusable with its answer (pairs it could not tell apart).
   std::vector<std::string> confusable_with_answer;
   /// The answer is right, or the diagnosis reported it confusable with the injected effect.

@@ -89,8 +89,8 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     }
   // What the suite demands, per case, on JW's real inputs at the real noise (README "Blind
   // synthetic suite" has the matrix). Most cases: at least 18 of 20 seeds name the right answer
-  // first (effects, baseline for nothing, baseline or the effect itself for absorbed effects -- never
-  // another effect: isRightAnswer --, "none" for the outside bump).
+  // first: the effect; the baseline for nothing; the baseline or the effect itself, never another
+  // effect, for an absorbed effect (isRightAnswer); "none" for the outside bump.
   // Absorbed today: ml_compartments, flexion_offset, flexion_gain, ap_translation, and -- since the
   // Hertz modulus may go below 1 MPa -- creep and adhesion_jkr: on these areas (2000-2740 mm^2, a
   // smooth function of the flexion) both change the force nearly in proportion to the Hertz term,
