@@ -37,4 +37,14 @@ double normalQuantile(double p) {
   return x - u / (1 + x * u / 2);
 }
 
+std::pair<double, double> calcWilsonInterval(int k, int n, double level) {
+  if (n < 1 || k < 0 || k > n) return {std::nan(""), std::nan("")};
+  const double z = normalQuantile(0.5 + level / 2), z2 = z * z;
+  const double p = static_cast<double>(k) / n, d = 1 + z2 / n;
+  const double centre = (p + z2 / (2.0 * n)) / d;
+  const double half = z * std::sqrt(p * (1 - p) / n + z2 / (4.0 * n * n)) / d;
+  // Exact at the ends: the interval of k = 0 starts at 0, that of k = n ends at 1.
+  return {k == 0 ? 0.0 : centre - half, k == n ? 1.0 : centre + half};
+}
+
 }  // namespace kneesim::identify

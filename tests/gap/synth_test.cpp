@@ -109,5 +109,27 @@ TEST(Synth, AnAbsorbedEffectMayBeNamedButNoOtherEffect) {
   EXPECT_FALSE(isRightAnswer("baseline", "none of the candidates", {}));
 }
 
+// The matrix gives each case's rate of right answers with its 95 % Wilson interval (17 of 20:
+// 64-95 %, the figures of Statistics.WilsonIntervalOfABinomialProportion), so that 17 and 18 of 20
+// read as what they are: not told apart by 20 seeds.
+TEST(Synth, TheMatrixGivesEachRateWithItsInterval) {
+  BlindSuiteResult res;
+  res.rows = {"threshold"};
+  res.columns = {"threshold", "baseline", "none of the candidates"};
+  res.counts = {{17, 3, 0}};
+  res.expected["threshold"] = "threshold";
+  for (int seed = 1; seed <= 20; ++seed) {
+    BlindOutcome o;
+    o.case_name = "threshold";
+    o.expected = "threshold";
+    o.seed = seed;
+    o.answer = seed <= 17 ? "threshold" : "baseline";
+    o.correct = o.correct_or_confusable = seed <= 17;
+    res.outcomes.push_back(o);
+  }
+  const std::string md = res.formatMarkdown();
+  EXPECT_NE(md.find("| threshold | 17 | 3 | . | 17/20 [64–95 %] | 17/20 |"), std::string::npos) << md;
+}
+
 }  // namespace
 }  // namespace kneesim::gap
