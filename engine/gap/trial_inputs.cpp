@@ -210,6 +210,16 @@ GapTrial assembleTrial(const TrialSource& src) {
   if (src.knee_forces.empty()) throw InputError(where, who + ": expected a knee-force CSV, got none");
   if (src.contact_area.empty())
     throw InputError(where, who + ": expected a contact-area .sto (the contact-area tool's output), got none");
+  // A missing input names the setup element that led to it (the readers would name only the path).
+  auto requireFile = [&](const std::string& path, const char* element, const char* what) {
+    if (!path.empty() && !std::filesystem::exists(path))
+      throw InputError({where.file, where.line, where.element + "/" + element},
+                       who + ": " + what + " not found: " + path);
+  };
+  requireFile(src.knee_forces, "knee_forces", "knee-force file");
+  requireFile(src.c3d, "c3d", "C3D file");
+  requireFile(src.contact_area, "contact_area", "contact-area file");
+  requireFile(src.kinematics, "kinematics", "kinematics file");
   GapTrial g;
   g.activity = getActivityDefinition(src.activity).name;
   g.trial.name = src.name;

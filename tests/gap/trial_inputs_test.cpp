@@ -138,6 +138,32 @@ TEST(TrialInputs, BadInputsAreOneLineErrors) {
               HasSubstr("events: expected auto, plates, force, flexion or times, got 'sometimes'"));
 }
 
+TEST(TrialInputs, AMissingInputFileIsNamedWithTheSetupElementThatNamedIt) {
+  // No data needed: the files are checked before any is read, in the order of the Trial's elements.
+  const std::string dir = ::kneesim::test::scratchDir("gap_trial_missing");
+  TrialSource s;
+  s.name = "walk";
+  s.where = {"gap.xml", 12, "GapTool/trials/Trial[walk]"};
+  s.knee_forces = dir + "/none.csv";
+  s.contact_area = dir + "/none.sto";
+  EXPECT_EQ(inputErrorOf([&] { assembleTrial(s); }),
+            "gap.xml:12: GapTool/trials/Trial[walk]/knee_forces: trial 'walk': knee-force file not found: " + dir +
+                "/none.csv");
+  io::Storage a;
+  a.labels = {"time", "S"};
+  a.data.resize(2, 2);
+  a.data << 0, 2e-3, 1, 2e-3;
+  io::writeStorage(dir + "/forces.csv", a);  // exists: the next missing one is reported
+  s.knee_forces = dir + "/forces.csv";
+  s.c3d = dir + "/none.c3d";
+  EXPECT_EQ(inputErrorOf([&] { assembleTrial(s); }),
+            "gap.xml:12: GapTool/trials/Trial[walk]/c3d: trial 'walk': C3D file not found: " + dir + "/none.c3d");
+  s.c3d.clear();
+  EXPECT_EQ(inputErrorOf([&] { assembleTrial(s); }),
+            "gap.xml:12: GapTool/trials/Trial[walk]/contact_area: trial 'walk': contact-area file not found: " + dir +
+                "/none.sto");
+}
+
 TEST(TrialInputs, CrossingsAndCyclesOnAHandMadeSignal) {
   // A 1 Hz square-ish wave: rising crossings of 0 at 0, 1, 2 s; falling at 0.5, 1.5, 2.5 s.
   std::vector<double> t, x;
