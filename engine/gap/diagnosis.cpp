@@ -434,7 +434,7 @@ std::vector<double> unitLogRatios(const std::vector<double>& a, const std::vecto
 }
 
 CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, int step, int n_candidates,
-                      Model& out) {
+                      int n_screened, Model& out) {
   CandidateFit cf;
   cf.effect = e.getName();
   cf.step = step;
@@ -468,6 +468,15 @@ CandidateFit evaluate(const Context& c, const Model& current, const Effect& e, i
   cf.one_sided_lower = oneSidedLower(cf.reduction);
   cf.whitened_one_sided_lower =
       oneSidedLower(relativeReductionInterval(current.unit_wsse, out.unit_wsse, c.o->level));
+  std::vector<double> score(c.units.size(), 0.0);
+  for (size_t u = 0; u < c.units.size(); ++u) {
+    const Unit& un = c.units[u];
+    const auto &y = c.trials[un.trial].measured_force, &pc = current.pred[un.trial], &pe = out.pred[un.trial];
+    for (int i : un.frames) score[u] += (y[i] - pc[i]) * (pe[i] - pc[i]);
+  }
+  const MeanInterval sm = meanInterval(score, c.o->level);
+  cf.score_t = sm.n >= 2 && sm.sd > 0 ? sm.mean / (sm.sd / std::sqrt(sm.n)) : 0;
+  cf.score_critical = studentQuantile(1 - c.o->alpha / std::max(1, n_screened), std::max(1, sm.n - 1));
   const double nfr = std::max(2.0, current.fit.effective_frames);
   int ke = 0;
   std::vector<int> ecols;
@@ -939,30 +948,31 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         if (e.getName() == s.effect) top.push_back(&e);
     }
     if (top.empty()) break;
+    const int n_screened =
+        static_cast<int>(std::count_if(scr.begin(), scr.end(), [](const Screening& x) { return x.testable; }));
     std::vector<CandidateFit> fits;
     std::vector<Model> models(top.size(), Model(*c.base));
     for (size_t k = 0; k < top.size(); ++k) {
-      fits.push_back(evaluate(c, current, *top[k], step, static_cast<int>(top.size()), models[k]));
+      fits.push_back(evaluate(c, current, *top[k], step, static_cast<int>(top.size()), n_screened, models[k]));
       sigs[top[k]->getName() + "@" + std::to_string(step)] = signature(c, models[k], current);
     }
     int best = -1;
     for (size_t k = 0; k < fits.size(); ++k)
       if (fits[k].converged && (best < 0 || fits[k].relative_improvement > fits[best].relative_improvement))
         best = static_cast<int>(k);
-    // The step needs a gate: a candidate that would be accepted on its own, i.e. whose withheld
-    // improvement is significant and at least min_relative_improvement (a steady but negligible
-    // improvement does not make a step). Which effect the step adds is then chosen among the
-    // significant candidates that remove at least min_relative_improvement and those whose withheld
-    // error is not significantly worse than the gate's while their prewhitened error is significantly
-    // lower (two-sided intervals of the relative reduction of the pooled MSE over cycles), by the
-    // prewhitened errors: they weigh the fast differences between rivals, which the smooth gap does
-    // not hide, where raw squared errors are dominated by the slow ones, which it does. A larger
-    // effect whose reduction varies more from cycle to cycle (the proximity threshold acts most on a
-    // few loud cycles) otherwise lost to a smaller, steadier rival.
+    // The step needs a gate: a candidate that would be accepted on its own, i.e. significant by its
+    // withheld improvement or its cross-fitted score (CandidateFit::isSignificant) and removing at least
+    // min_relative_improvement (a steady but negligible improvement does not make a step). Which effect the
+    // step adds is then chosen among the significant candidates that remove at least
+    // min_relative_improvement and those whose withheld error is not significantly worse than the gate's
+    // while their prewhitened error is significantly lower (two-sided intervals of the relative reduction
+    // of the pooled MSE over cycles), by the prewhitened errors: they weigh the fast differences between
+    // rivals, which the smooth gap does not hide, where raw squared errors are dominated by the slow ones,
+    // which it does. A larger effect whose reduction varies more from cycle to cycle (the proximity
+    // threshold acts most on a few loud cycles) otherwise lost to a smaller, steadier rival.
     int significant = -1;  // the gate
     for (size_t k = 0; k < fits.size(); ++k)
-      if (fits[k].converged && fits[k].one_sided_lower > 0 &&
-          fits[k].relative_improvement >= o.min_relative_improvement &&
+      if (fits[k].converged && fits[k].isSignificant() && fits[k].relative_improvement >= o.min_relative_improvement &&
           (significant < 0 || fits[k].whitened_improvement > fits[significant].whitened_improvement))
         significant = static_cast<int>(k);
     std::vector<bool> eligible(fits.size(), false);
@@ -980,7 +990,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
         }
         // One not significant on its own must be comparable in raw error and significantly better than
         // the gate in prewhitened error: a close call between them stays with the significant one.
-        if (fits[k].one_sided_lower > 0)
+        if (fits[k].isSignificant())
           eligible[k] = true;
         else if (relativeReductionInterval(models[significant].unit_sse, models[k].unit_sse, o.level).upper < 0)
           left_out[k] = "its withheld error is significantly worse than " + g + "'s";
@@ -994,12 +1004,12 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     } else {
       // No gate: the step fails; the decision names the significant candidate (if any) it would have been.
       for (size_t k = 0; k < fits.size(); ++k)
-        if (best >= 0 && fits[k].converged && fits[k].one_sided_lower > 0 &&
-            (fits[best].one_sided_lower <= 0 || fits[k].whitened_improvement > fits[best].whitened_improvement)) {
+        if (best >= 0 && fits[k].converged && fits[k].isSignificant() &&
+            (!fits[best].isSignificant() || fits[k].whitened_improvement > fits[best].whitened_improvement)) {
           by_whitened = by_whitened || static_cast<int>(k) != best;
           best = static_cast<int>(k);
         }
-      for (size_t k = 0; k < fits.size(); ++k) eligible[k] = fits[k].converged && fits[k].one_sided_lower > 0;
+      for (size_t k = 0; k < fits.size(); ++k) eligible[k] = fits[k].converged && fits[k].isSignificant();
     }
     auto separatedBy = [&](const std::string& a, const std::string& b, const std::string& evidence) {
       std::string sa, sb;
@@ -1012,7 +1022,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
     // Confusable pairs: both significant, withheld errors alike, force changes nearly proportional.
     for (size_t a = 0; a < fits.size(); ++a)
       for (size_t b = a + 1; b < fits.size(); ++b) {
-        if (!(fits[a].one_sided_lower > 0 && fits[b].one_sided_lower > 0)) continue;
+        if (!(fits[a].isSignificant() && fits[b].isSignificant())) continue;
         const MeanInterval diff = meanInterval(unitLogRatios(models[b].unit_sse, models[a].unit_sse), o.level);
         const double r = pearson(sigs[fits[a].effect + "@" + std::to_string(step)],
                                  sigs[fits[b].effect + "@" + std::to_string(step)]);
@@ -1026,14 +1036,18 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
           d.confusable.push_back(cp);
         }
       }
+    // Both significance tests of a candidate, in words.
+    auto tests = [&](const CandidateFit& f) {
+      return "MSE reduction " + fmt(100 * f.relative_improvement, 3) + " %, one-sided lower bound " +
+             fmt(100 * f.one_sided_lower, 3) + " % at level " + fmt(1 - o.alpha / fits.size(), 3) +
+             "; cross-fitted score t = " + fmt(f.score_t, 3) + " against " + fmt(f.score_critical, 3);
+    };
     bool accept = false;
     if (best >= 0) {
       CandidateFit& f = fits[best];
       std::vector<std::string> why;
-      if (!(f.one_sided_lower > 0 || significant >= 0))
-        why.push_back("its withheld improvement is not significant (MSE reduction " +
-                      fmt(100 * f.relative_improvement, 3) + " %, one-sided lower bound " + fmt(100 * f.one_sided_lower, 3) + " % at level " +
-                      fmt(1 - o.alpha / fits.size(), 3) + ")");
+      if (!(f.isSignificant() || significant >= 0))
+        why.push_back("neither its withheld improvement nor its cross-fitted score is significant (" + tests(f) + ")");
       if (f.relative_improvement < o.min_relative_improvement)
         why.push_back("it removes only " + fmt(100 * f.relative_improvement, 2) + " % of the withheld mean square error");
       if (!(f.d_bic < 0)) why.push_back("BIC does not favour it (dBIC " + fmt(f.d_bic, 3) + ")");
@@ -1044,25 +1058,24 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
       const std::string whitened = "best prewhitened withheld improvement (" + fmt(100 * f.whitened_improvement, 3) +
                                    "%; MSE " + fmt(100 * f.relative_improvement, 3) + "%)";
       std::string how;
-      if (f.one_sided_lower > 0 && !by_whitened)
-        how = "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) + "% of the MSE), significant";
-      else if (f.one_sided_lower > 0 || significant < 0)
-        how = whitened + " among the significant ones";
+      if (f.isSignificant() && !by_whitened)
+        how = "best withheld improvement (" + fmt(100 * f.relative_improvement, 3) + "% of the MSE), significant (" +
+              tests(f) + ")";
+      else if (f.isSignificant() || significant < 0)
+        how = whitened + " among the significant ones (" + tests(f) + ")";
       else
-        how = whitened + ", not significant on its own (lower bound " + fmt(100 * f.one_sided_lower, 3) +
-              " %) but significantly lower in prewhitened error than " + fits[significant].effect +
-              ", whose improvement is significant, and not significantly worse in raw error";
+        how = whitened + ", not significant on its own (" + tests(f) +
+              ") but significantly lower in prewhitened error than " + fits[significant].effect +
+              ", which is significant, and not significantly worse in raw error";
       f.decision = accept ? "selected: " + how + ", dBIC " + fmt(f.d_bic, 3) : "not selected: " + join(why, "; ");
     }
     for (size_t k = 0; k < fits.size(); ++k)
       if (static_cast<int>(k) != best)
         fits[k].decision =
             by_whitened && !eligible[k]
-                ? (fits[k].one_sided_lower > 0 ? "not eligible at step " + std::to_string(step) + ": " + left_out[k]
-                                               : "not significant at step " + std::to_string(step) +
-                                                     " (MSE reduction lower bound " +
-                                                     fmt(100 * fits[k].one_sided_lower, 3) + " %)" +
-                                                     (left_out[k].empty() ? "" : ", and " + left_out[k]))
+                ? (fits[k].isSignificant() ? "not eligible at step " + std::to_string(step) + ": " + left_out[k]
+                                           : "not significant at step " + std::to_string(step) + " (" + tests(fits[k]) +
+                                                 ")" + (left_out[k].empty() ? "" : ", and " + left_out[k]))
                 : std::string("not the best ") + (by_whitened ? "prewhitened " : "") + "withheld improvement at step " +
                       std::to_string(step);
     if (accept) {
@@ -1092,7 +1105,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
           const Effect* e = nullptr;
           for (const auto& x : catalogue)
             if (x.getName() == sc.effect) e = &x;
-          const CandidateFit rf = evaluate(c, current, *e, step, static_cast<int>(top.size()), extra);
+          const CandidateFit rf = evaluate(c, current, *e, step, static_cast<int>(top.size()), n_screened, extra);
           if (!rf.converged) continue;
           rival = &extra;
           rival_reduction = rf.relative_improvement;
@@ -1299,7 +1312,7 @@ UndecidedCandidate findUndecided(const std::vector<CandidateFit>& candidates, in
   for (const auto& c : candidates) {
     if (c.step != step) continue;
     if (c.accepted) return u;  // the step added an effect: nothing was left undecided by it
-    if (c.converged && c.relative_improvement >= min_improvement && !(c.one_sided_lower > 0) &&
+    if (c.converged && c.relative_improvement >= min_improvement && !c.isSignificant() &&
         (!best || c.one_sided_lower > best->one_sided_lower))
       best = &c;
   }
@@ -1313,6 +1326,10 @@ UndecidedCandidate findUndecided(const std::vector<CandidateFit>& candidates, in
   u.cycles = best->reduction.n;
   const double ratio = (best->reduction.mean - best->one_sided_lower) / best->reduction.mean;
   u.cycles_needed = static_cast<int>(std::ceil(u.cycles * ratio * ratio));
+  // The score's t grows with the square root of the cycles too.
+  if (best->score_t > 0)
+    u.cycles_needed = std::min(
+        u.cycles_needed, static_cast<int>(std::ceil(u.cycles * std::pow(best->score_critical / best->score_t, 2))));
   return u;
 }
 

@@ -17,9 +17,11 @@
 //     correlation discounted); the top ones are fitted fully (Ipopt) and compared by withheld
 //     error (reduction of the pooled held-out MSE with a ratio-estimator interval over cycles, and
 //     per-cycle log ratios of held-out SSE), dAIC/dBIC and the stability of their parameters across
-//     folds (jackknife interval). Forward selection continues while some candidate's withheld MSE
-//     reduction is significant (Bonferroni over the effects fitted at that step) and large enough
-//     (the gate); it adds the best prewhitened candidate among the significant ones and those not
+//     folds (jackknife interval). Forward selection continues while some candidate is significant
+//     and large enough (the gate): its withheld MSE reduction's lower bound (Bonferroni over the
+//     effects fitted at that step) is above zero, or its cross-fitted score test (the change its fold
+//     fits predict for withheld cycles against the withheld residuals there; Bonferroni over the
+//     effects screened) is significant; it adds the best prewhitened candidate among the significant ones and those not
 //     significantly worse than the gate in raw error but significantly better in prewhitened
 //     error, if BIC favours it. Pairs that improve alike with nearly the same
 //     force change are reported as confusable, with what data would separate them. A sign-flip
@@ -177,6 +179,19 @@ struct CandidateFit {
   /// a criterion on its own: prewhitened errors weigh the fast part of a force change, which the smooth
   /// noise hides least, and would accept effects the baseline absorbs to well under the noise.
   double whitened_one_sided_lower = 0;
+  /// Cross-fitted score test, the second way to significance. Per cycle, the force change the
+  /// candidate's fold fit (which did not see the cycle) predicts there, times the current model's
+  /// withheld residual there, summed over the cycle's frames: its mean over cycles is zero when the
+  /// effect is absent (the change was fitted on other cycles' noise) and |d|^2 when the effect's
+  /// change d is there, with a spread of sigma |d|, so its t grows like the effect's size over the
+  /// noise, D, where the withheld MSE reduction (2 r.d - |d|^2 per cycle) grows like D / 2.
+  /// Student t of that mean over cycles (cycles - 1 dof).
+  double score_t = 0;
+  /// The t score_t must exceed: Bonferroni over every testable effect the step screened, not only
+  /// those it fitted, since the screening ranked them by an in-sample score of the same residuals.
+  double score_critical = 0;
+  /// Significant by either test: the withheld MSE reduction's lower bound or the cross-fitted score.
+  bool isSignificant() const { return one_sided_lower > 0 || score_t > score_critical; }
   double d_aic = 0, d_bic = 0;    ///< Against the current model, effective frames.
   std::vector<EffectParameter> parameters;
   bool accepted = false;
@@ -243,6 +258,8 @@ struct UndecidedCandidate {
   int step = 0;
   double reduction = 0, lower = 0;          ///< CandidateFit::relative_improvement, one_sided_lower.
   double whitened = 0, whitened_lower = 0;  ///< The same of the prewhitened errors.
+  /// Cycles now, and about how many would make the first of the two tests significant if the
+  /// reduction (or score) and its spread over cycles held.
   int cycles = 0, cycles_needed = 0;
 };
 

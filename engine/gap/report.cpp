@@ -169,16 +169,27 @@ json toJson(const GapReport& r, const Anchors& a) {
                       {"ci_jackknife", interval(p.ci_jackknife)}, {"fold_mean", num(p.fold_mean)},
                       {"fold_sd", num(p.fold_sd)}, {"sign_consistency", num(p.sign_consistency)},
                       {"at_bound", p.at_bound}, {"identified", p.identified}});
-      cands.push_back({{"effect", c.effect}, {"law", c.law}, {"step", c.step}, {"converged", c.converged},
-                       {"rmse_in_sample_N", num(c.rmse_in_sample)}, {"rmse_heldout_N", num(c.rmse_heldout)},
+      cands.push_back({{"effect", c.effect},
+                       {"law", c.law},
+                       {"step", c.step},
+                       {"converged", c.converged},
+                       {"rmse_in_sample_N", num(c.rmse_in_sample)},
+                       {"rmse_heldout_N", num(c.rmse_heldout)},
                        {"heldout_log_sse_ratio", meanInterval(c.log_ratio)},
                        {"relative_mse_reduction", num(c.relative_improvement)},
                        {"relative_mse_reduction_interval", meanInterval(c.reduction)},
                        {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)},
                        {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)},
                        {"prewhitened_relative_mse_reduction_one_sided_lower", num(c.whitened_one_sided_lower)},
-                       {"d_aic", num(c.d_aic)}, {"d_bic", num(c.d_bic)}, {"parameters", ps},
-                       {"accepted", c.accepted}, {"decision", c.decision}, {"notes", c.notes}});
+                       {"cross_fitted_score_t", num(c.score_t)},
+                       {"cross_fitted_score_critical_t", num(c.score_critical)},
+                       {"significant", c.isSignificant()},
+                       {"d_aic", num(c.d_aic)},
+                       {"d_bic", num(c.d_bic)},
+                       {"parameters", ps},
+                       {"accepted", c.accepted},
+                       {"decision", c.decision},
+                       {"notes", c.notes}});
     }
     t["candidates"] = cands;
     t["prewhitening_ar"] = d.prewhitening;
@@ -292,8 +303,8 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       s << ".";
     }
     s << "\n\n| step | effect | withheld RMSE | MSE reduction (lower bound) | prewhitened (lower bound) | "
-         "log ratio [95 % CI] | dAIC | dBIC | parameters | decision |\n"
-         "|---:|---|---:|---:|---:|---|---:|---:|---|---|\n";
+         "cross-fitted score t (needed) | log ratio [95 % CI] | dAIC | dBIC | parameters | decision |\n"
+         "|---:|---|---:|---:|---:|---:|---|---:|---:|---|---|\n";
     for (const auto& c : d.candidates) {
       std::string ps;
       for (const auto& p : c.parameters)
@@ -302,9 +313,10 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
               fmt(p.ci_jackknife.upper) + "], same sign " + pct(p.sign_consistency) + ")";
       s << "| " << c.step << " | " << c.effect << " | " << fixed(c.rmse_heldout, 1) << " N | "
         << pct(c.relative_improvement) << " (" << pct(c.one_sided_lower) << ") | " << pct(c.whitened_improvement)
-        << " (" << pct(c.whitened_one_sided_lower) << ") | " << fixed(c.log_ratio.mean, 3) << " ["
-        << fixed(c.log_ratio.lower, 3) << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | "
-        << fixed(c.d_bic, 1) << " | " << ps << " | " << c.decision << " |\n";
+        << " (" << pct(c.whitened_one_sided_lower) << ") | " << fixed(c.score_t, 2) << " ("
+        << fixed(c.score_critical, 2) << ") | " << fixed(c.log_ratio.mean, 3) << " [" << fixed(c.log_ratio.lower, 3)
+        << ", " << fixed(c.log_ratio.upper, 3) << "] | " << fixed(c.d_aic, 1) << " | " << fixed(c.d_bic, 1) << " | "
+        << ps << " | " << c.decision << " |\n";
     }
     s << "\n";
     if (!d.confusable.empty()) {

@@ -546,7 +546,8 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
                   formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
                   formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
                   formatSignificant(100 * cf.whitened_improvement, 3) + "% (lb " +
-                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), dBIC " +
+                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), score t " +
+                  formatSignificant(cf.score_t, 3) + " (" + formatSignificant(cf.score_critical, 3) + "), dBIC " +
                   formatSignificant(cf.d_bic, 3) + formatParameters(cf.parameters) +
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);

@@ -8,7 +8,6 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <map>
 
 #include "gap/jw_sources.hpp"
 #include "gap/synth.hpp"
@@ -88,9 +87,9 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
                   o.answer.c_str(), o.injected_rms, conf.empty() ? "" : "; reported confusable with ", conf.c_str());
     }
   // What the suite demands, per case, on JW's real inputs at the real noise (README "Blind
-  // synthetic suite" has the matrix). Most cases: at least 18 of 20 seeds name the right answer
-  // first: the effect; the baseline for nothing; the baseline or the effect itself, never another
-  // effect, for an absorbed effect (isRightAnswer); "none" for the outside bump.
+  // synthetic suite" has the matrix): at least 18 of 20 seeds name the right answer first: the
+  // effect; the baseline for nothing; the baseline or the effect itself, never another effect, for
+  // an absorbed effect (isRightAnswer); "none" for the outside bump.
   // Absorbed today: ml_compartments, flexion_offset, flexion_gain, ap_translation, and -- since the
   // Hertz modulus may go below 1 MPa -- creep and adhesion_jkr: on these areas (2000-2740 mm^2, a
   // smooth function of the flexion) both change the force nearly in proportion to the Hertz term,
@@ -102,23 +101,14 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   // radius_flexion once adhesion is held to its physical size (psi <= 7e4 N/m^1.5: w <= 0.1 J/m^2
   // on K <= 2 GPa). Its old bound, 1e7, let an adhesion of psi ~ 2.4e5 (w ~ 1.1 J/m^2, 11 times the
   // dry maximum) mimic the exponent: best possible 78 %, 13 / 20 named first.
-  // Threshold: 100 % against flexion_offset, so its misses are the method's; its floors are what
-  // the diagnosis achieves today (20 seeds, in the comment). Choosing among the significant
-  // candidates by prewhitened withheld errors (up to 6 Hz) lifted it from 11 to 16 (8 -> 13 on
-  // another 20 seeds); letting a significant candidate open the step for a candidate whose raw
-  // withheld error is not significantly worse than it and whose prewhitened one is significantly
-  // lower, from 16 to 17 (13 -> 16 and 12 -> 16 on two other sets of 20 seeds). Its remaining
-  // misses here: no candidate significant (2 of 20), radius_flexion named (1).
-  // What the diagnosis says of the injected effect, counted generously: named first, reported
-  // confusable with the answer, or -- when the answer is "baseline" -- named as the candidate left
-  // undecided with the cycles that would decide it. 18 of 20 everywhere.
-  struct Demand {
-    int named_first = 18, named_or_confusable = 18, named_confusable_or_undecided = 18;
-  };
-  const std::map<std::string, Demand> weaker{
-      // observed 17 / 20 named first, 18 / 20 named or confusable, 19 / 20 with undecided
-      {"threshold", {16, 17, 18}},
-  };
+  // Threshold: 100 % against flexion_offset, so its misses were the method's. It leaves ~40 N
+  // after the baseline's refit under 100 N of noise, where a withheld-error reduction's z is only
+  // about half the effect's size over the noise. Choosing among the significant candidates by
+  // prewhitened withheld errors lifted it from 11 to 16 of 20, the whitened-comparable rule to 17,
+  // and the cross-fitted score test (CandidateFit::score_t, z about the whole size) to 19 (on three
+  // other sets of 20 seeds 16, 16, 16 -> 19, 19, 16), with flexion_gain, whose 23 N it also sees
+  // better, 19 (and 18, 15, 19 -> 16, 17, 17, never below 15 before or after).
+  const int demand = 18;
   // Every visible single-effect case has its best-possible rate against its closest rival.
   for (const auto& bc : getDefaultBlindCases()) {
     if (bc.effects.size() != 1 || res.expected.at(bc.name) == "baseline") continue;
@@ -140,20 +130,13 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
   }
   for (const auto& row : res.rows) {
     const auto outs = res.getOutcomes(row);
-    int ok = 0, okc = 0, said = 0, est = 0, cov = 0, cov_jack = 0;
+    int ok = 0, est = 0, cov = 0, cov_jack = 0;
     for (const auto* o : outs) {
       ok += o->correct;
-      okc += o->correct_or_confusable;
-      said += o->correct_or_confusable || (o->answer == "baseline" && o->undecided == o->expected);
       if (o->has_estimate) ++est, cov += o->covered, cov_jack += o->covered_jackknife;
     }
     SCOPED_TRACE(row);
-    const auto w = weaker.find(row);
-    const Demand demand = w == weaker.end() ? Demand{} : w->second;
-    const double scale = outs.size() / 20.0;
-    EXPECT_GE(ok, demand.named_first * scale);
-    EXPECT_GE(okc, demand.named_or_confusable * scale);
-    EXPECT_GE(said, demand.named_confusable_or_undecided * scale);
+    EXPECT_GE(ok, demand * outs.size() / 20.0);
     // The injected size lies in its 95 % intervals about as often as it should, where the effect is
     // visible (an absorbed effect's size is not identifiable: its expected answer is the baseline).
     // Observed: asymptotic 18-20 of 20 (all cases); jackknife over the 5 folds 13/19 (threshold) to

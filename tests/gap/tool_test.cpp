@@ -147,11 +147,18 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   ASSERT_GE(j["targets"][0]["candidates"].size(), 1u);
   EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction"));
   EXPECT_TRUE(j["targets"][0]["candidates"][0].contains("prewhitened_relative_mse_reduction_one_sided_lower"));
+  // Both significance tests, and which made the candidate significant.
+  const auto& c0 = j["targets"][0]["candidates"][0];
+  EXPECT_EQ(c0["significant"].get<bool>(),
+            c0["relative_mse_reduction_one_sided_lower"].get<double>() > 0 ||
+                c0["cross_fitted_score_t"].get<double>() > c0["cross_fitted_score_critical_t"].get<double>());
+  EXPECT_GT(c0["cross_fitted_score_critical_t"].get<double>(), 2);  // a Bonferroni Student t over the screened effects
   EXPECT_TRUE(j["targets"][0].contains("undecided"));  // null when no candidate was left undecided
   const std::string md = readFileText(dir + "/out/gap_report.md");
   EXPECT_THAT(md, ::testing::Not(HasSubstr("INTERIM")));
   EXPECT_THAT(md, HasSubstr("winners' RMS errors 229-326 N per compartment"));
   EXPECT_THAT(md, HasSubstr("Prewhitening filter: AR("));
+  EXPECT_THAT(md, HasSubstr("| cross-fitted score t (needed) |"));
   EXPECT_EQ(r.report.targets.size(), 2u);
 }
 
