@@ -21,9 +21,9 @@
 //     and large enough (the gate): its withheld MSE reduction's lower bound (Bonferroni over the
 //     effects fitted at that step) is above zero, or its cross-fitted score test (the change its fold
 //     fits predict for withheld cycles against the withheld residuals there; Bonferroni over the
-//     effects screened) is significant; it adds the best prewhitened candidate among the significant ones and those not
-//     significantly worse than the gate in raw error but significantly better in prewhitened
-//     error, if BIC favours it. Pairs that improve alike with nearly the same
+//     effects screened) is significant; it adds the best prewhitened candidate among the significant
+//     ones and those not significantly worse than the gate in raw error but significantly better in
+//     prewhitened error, if BIC favours it. Pairs that improve alike with nearly the same
 //     force change are reported as confusable, with what data would separate them. A sign-flip
 //     permutation test over cycles of the final fit's residuals then asks whether systematic
 //     structure remains; if it does the
