@@ -1,0 +1,113 @@
+// The .osim reader's property forms shared by every component: functions, six-number transforms,
+// component paths.
+#include "model/osim_reader_internal.hpp"
+
+#include <set>
+
+#include "core/error.hpp"
+#include "core/strings.hpp"
+
+namespace kneesim::model::osim {
+
+namespace {
+
+const char* const kFunctionTypes =
+    "Constant, LinearFunction, PolynomialFunction, SimmSpline, NaturalCubicSpline, PiecewiseLinearFunction or "
+    "MultiplierFunction";
+
+bool isFunctionTag(const std::string& t) {
+  static const std::set<std::string> tags = {"Constant",           "LinearFunction",          "PolynomialFunction",
+                                             "SimmSpline",         "NaturalCubicSpline",      "natCubicSpline",
+                                             "PiecewiseLinearFunction", "MultiplierFunction"};
+  return tags.count(t) > 0;
+}
+
+std::vector<double> requireDoubles(const Node& owner, const char* tag) {
+  Node c = owner.requireChild(tag);
+  return c.toDoubles();
+}
+
+}  // namespace
+
+std::string listNames(const std::vector<std::string>& names, size_t max_names) {
+  std::string out;
+  for (size_t i = 0; i < names.size() && i < max_names; ++i) out += (i ? ", " : "") + names[i];
+  if (names.size() > max_names) out += ", ... (" + std::to_string(names.size()) + " in all)";
+  return out.empty() ? "none" : out;
+}
+
+Node findObjectProperty(const Node& owner, const char* property, std::initializer_list<const char*> others) {
+  if (Node w = owner.child(property)) {
+    const auto kids = w.children();
+    if (kids.size() > 1) w.fail("expected one function, got " + std::to_string(kids.size()) + " elements");
+    return kids.empty() ? Node() : kids[0];
+  }
+  for (const Node& c : owner.children()) {
+    const std::string tag = c.name();
+    bool other = false;
+    for (const char* o : others) other = other || tag == o;
+    if (other) continue;
+    if (c.nameAttr() == property || isFunctionTag(tag)) return c;
+  }
+  return Node();
+}
+
+FunctionPtr parseFunction(const Node& el) {
+  const std::string tag = el.name();
+  if (tag == "Constant") return makeConstant(el.childDouble("value", 0.0));
+  if (tag == "LinearFunction") {
+    std::vector<double> c{1.0, 0.0};
+    if (Node n = el.child("coefficients"); n && !n.text().empty()) c = n.toDoubles();
+    if (c.size() != 2)
+      el.child("coefficients").fail("expected 2 coefficients (slope intercept), got " + std::to_string(c.size()));
+    return makeLinear(c[0], c[1]);
+  }
+  if (tag == "PolynomialFunction") {
+    std::vector<double> c = requireDoubles(el, "coefficients");
+    if (c.empty()) el.child("coefficients").fail("expected at least 1 coefficient, got 0");
+    return makePolynomial(std::move(c));
+  }
+  if (tag == "SimmSpline" || tag == "NaturalCubicSpline" || tag == "natCubicSpline" ||
+      tag == "PiecewiseLinearFunction") {
+    std::vector<double> x = requireDoubles(el, "x");
+    std::vector<double> y = requireDoubles(el, "y");
+    const std::string problem = checkKnots(x, y);
+    if (!problem.empty()) el.fail(problem);
+    if (tag == "PiecewiseLinearFunction") return makePiecewiseLinear(std::move(x), std::move(y));
+    if (tag == "NaturalCubicSpline") return makeNaturalCubicSpline(std::move(x), std::move(y));
+    return makeSimmSpline(std::move(x), std::move(y));
+  }
+  if (tag == "MultiplierFunction") {
+    Node inner = findObjectProperty(el, "function", {"scale"});
+    if (!inner) el.fail("expected a function to scale, got none");
+    return makeMultiplier(parseFunction(inner), el.childDouble("scale", 1.0));
+  }
+  el.fail("unknown function type '" + tag + "' (expected " + kFunctionTypes + ")");
+}
+
+Pose parseSixTransform(const Node& n) {
+  const std::vector<double> v = n.toDoubles();
+  if (v.size() != 6) n.fail("expected 6 numbers (rX rY rZ tx ty tz), got " + std::to_string(v.size()));
+  return poseFromXYZ(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
+}
+
+std::vector<std::string> splitPath(const std::string& path) {
+  std::vector<std::string> out;
+  for (auto part : splitOn(path, '/')) {
+    if (part.empty() || part == ".") continue;
+    if (part == "..") {
+      if (!out.empty()) out.pop_back();
+      continue;
+    }
+    out.emplace_back(part);
+  }
+  return out;
+}
+
+std::string joinPath(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const auto& p : parts) out += "/" + p;
+  return out.empty() ? "/" : out;
+}
+
+}  // namespace kneesim::model::osim
