@@ -31,8 +31,8 @@ std::string modelPath(const std::string& f) { return test::sourcePath("models/jw
 // clone next to shared/ has it; skip when the data is elsewhere (KNEESIM_DATA_DIR).
 #define KNEESIM_REQUIRE_SETUP_DATA()                                                                  \
   do {                                                                                                \
-    if (!std::filesystem::exists(modelPath("../../../shared/data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
-      GTEST_SKIP() << "the setup files' data folder <repo>/../shared/data is not there";              \
+    if (!std::filesystem::exists(modelPath("../../data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
+      GTEST_SKIP() << "the setup files' data folder <repo>/data is not there";              \
   } while (0)
 
 const std::vector<std::string> kBodies = {"ground", "pelvis", "femur", "femoral_component", "tibial_component",

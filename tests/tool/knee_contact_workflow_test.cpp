@@ -380,8 +380,8 @@ TEST(KneeContactWorkflow, BadInputsAreOneLineErrors) {
 
 #define KNEESIM_REQUIRE_SETUP_DATA()                                                                         \
   do {                                                                                                       \
-    if (!fs::exists(test::sourcePath("models/jw-knee24/../../../shared/data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
-      GTEST_SKIP() << "the setup files' data folder <repo>/../shared/data is not there";                    \
+    if (!fs::exists(test::sourcePath("data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
+      GTEST_SKIP() << "the setup files' data folder <repo>/data is not there";                    \
   } while (0)
 
 const WorkflowTrialResult& findTrial(const WorkflowReport& r, const std::string& name) {

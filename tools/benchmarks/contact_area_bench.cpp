@@ -1,4 +1,4 @@
-// Distance map and contact area speed on JW's implant (needs ../shared/data): the insert's
+// Distance map and contact area speed on JW's implant (data/kgc4-jw): the insert's
 // articular vertices (3,260 of its 20,870-triangle mesh) against the femoral component (80,774
 // triangles), single thread, over two motions:
 //  - sweep: the paper's hinge kinematics from 0 to 70 degrees of flexion in 1-degree steps

@@ -1,7 +1,7 @@
 // IK speed: microseconds per frame and frames per second, single thread, with the marker RMS
 // reached. Cases: a synthetic 24-DOF knee-model tree with 22 markers (the paper's model
 // structure), OpenSim's gait2354 regression trial (with the marker RMS of OpenSim's stored answer
-// for comparison) and OpenSim's constraintTest (the last two if ../shared/data is present).
+// for comparison) and OpenSim's constraintTest (the last two on data/opensim-ik-tests).
 #include <benchmark/benchmark.h>
 
 #include <time.h>

@@ -1,4 +1,4 @@
-// Implant geometry speed on JW's components (needs ../shared/data): exact signed-distance queries
+// Implant geometry speed on JW's components (data/kgc4-jw): exact signed-distance queries
 // near the insert, the condyle cylinder fits (point selection included), and seating the femoral
 // component, cold (neutral, from the default start) and warm (each degree of a flexion series
 // started from the previous one, as calcHingeKinematics does).
