@@ -119,7 +119,7 @@ expect_error "synth negative noise" 1 "--noise: expected a standard deviation >=
 expect_error "synth no replicates" 1 "--replicates: expected at least 1, got 0" \
   "$exe" synth "$src/share/gap/jw_gap.xml" --replicates 0
 
-# OpenSim's regression case, when the data are here: kneesim run, then compare with OpenSim's answer.
+# OpenSim's regression case (data/opensim-ik-tests): kneesim run, then compare with OpenSim's answer.
 if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then
   mkdir -p "$tmp/opensim"
   cp "$data"/opensim-ik-tests/* "$tmp/opensim/"
@@ -131,7 +131,7 @@ if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then
     --tolerance 0.0001 >/dev/null 2>&1
   [ $? = 3 ] || fail "compare-motion with a tolerance of 1e-4 deg should exit with 3"
 else
-  echo "note: $data/opensim-ik-tests absent; OpenSim regression part skipped"
+  fail "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml not found (docs/data.md)"
 fi
 
 [ "$failures" = 0 ] || { echo "$failures failure(s)"; exit 1; }

@@ -25,13 +25,6 @@ using Eigen::Vector3d;
 
 std::string modelPath(const std::string& f) { return test::sourcePath("models/jw-knee24/" + f); }
 
-// The setup files name the data relative to the repository (<repo>/../shared/data), as a clean
-// clone next to shared/ has it; skip when the data is elsewhere (KNEESIM_DATA_DIR).
-#define KNEESIM_REQUIRE_SETUP_DATA()                                                                  \
-  do {                                                                                                \
-    if (!std::filesystem::exists(modelPath("../../data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
-      GTEST_SKIP() << "the setup files' data folder <repo>/data is not there";              \
-  } while (0)
 std::string c3dPath(const std::string& trial) { return test::dataPath("kgc4-jw/markers/jw_" + trial + ".c3d"); }
 
 // Runs the trial's IK setup of models/jw-knee24 with its outputs redirected to a scratch folder.
@@ -92,7 +85,7 @@ RmsFigures rmsOver(const ik::IkReport& rep, double t0, double t1) {
 // third frame and the frame's marker RMS. Set KNEESIM_UPDATE_REFERENCE=1 to rewrite it.
 TEST(JwKnee24Ik, Ngait3MatchesTheStoredResult) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   const IkRun run = runTrial("ngait_og3");
   const std::string ref_path = test::fixturePath("reference/jw_ngait_og3_ik.sto");
   io::Storage fresh;
@@ -140,7 +133,7 @@ TEST(JwKnee24Ik, Ngait3MatchesTheStoredResult) {
 // Heel strikes from the force plates.
 TEST(JwKnee24Ik, Ngait3KneeFlexionHasTheFigure6Shape) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   const io::C3dFile c3d = io::readC3d(c3dPath("ngait_og3"));
   const std::vector<double> hs = findRightHeelStrikes(c3d);
   ASSERT_EQ(hs.size(), 2u);
@@ -186,7 +179,7 @@ TEST(JwKnee24Ik, Ngait3KneeFlexionHasTheFigure6Shape) {
 // systematically off by more than 20 mm (its mean offset from the measurement, in its body frame).
 TEST(JwKnee24Ik, MarkerErrorsOverTheGaitCycles) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   model::ModelPtr m = model::readOsim(modelPath("jw_knee24.osim"));
   sim::System sys(m);
   auto ws = sys.createWorkspace();
@@ -246,7 +239,7 @@ TEST(JwKnee24Ik, MarkerErrorsOverTheGaitCycles) {
 // jw_knee24_generic.osim and the trials.
 TEST(JwKnee24Ik, RegisteredMarkersRegenerate) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_1legstand1.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_1legstand1.c3d");
   ik::MarkerPlacerSetup setup = ik::readMarkerPlacerSetup(modelPath("marker_placer.xml"));
   const std::string dir = test::scratchDir("jw_placer");
   setup.output_model_file = dir + "/jw_knee24.osim";

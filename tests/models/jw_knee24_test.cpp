@@ -27,14 +27,6 @@ constexpr double kDeg = M_PI / 180.0;
 
 std::string modelPath(const std::string& f) { return test::sourcePath("models/jw-knee24/" + f); }
 
-// The setup files name the data relative to the repository (<repo>/../shared/data), as a clean
-// clone next to shared/ has it; skip when the data is elsewhere (KNEESIM_DATA_DIR).
-#define KNEESIM_REQUIRE_SETUP_DATA()                                                                  \
-  do {                                                                                                \
-    if (!std::filesystem::exists(modelPath("../../data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
-      GTEST_SKIP() << "the setup files' data folder <repo>/data is not there";              \
-  } while (0)
-
 const std::vector<std::string> kBodies = {"ground", "pelvis", "femur", "femoral_component", "tibial_component",
                                           "tibia",  "patella", "talus", "calcaneus",         "toes"};
 const std::vector<std::string> kCoordinates = {
@@ -208,8 +200,7 @@ TEST(JwKnee24, OpenSim40ConventionsInTheFile) {
 // below the seated pose and turned by 0.001 deg; the CT talus (drawn in the tray frame) sits on
 // the UF ankle centre. The committed model is what build_model.xml regenerates.
 TEST(JwKnee24, RegeneratesFromTheUfModelAndTheImplantFiles) {
-  KNEESIM_REQUIRE_DATA("kgc4-jw/model/jw_all_body_scaled.osim");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/model/jw_all_body_scaled.osim");
   KNEESIM_REQUIRE_DATA("kgc4-jw/implant/femoral_component.stl");
   const tool::KneeModelSetup setup = tool::readKneeModelSetup(modelPath("build_model.xml"));
   const tool::KneeModelResult r = tool::buildKneeModel(setup);

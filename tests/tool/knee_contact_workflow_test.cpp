@@ -378,12 +378,6 @@ TEST(KneeContactWorkflow, BadInputsAreOneLineErrors) {
 
 // ---- JW: the paper's workflow (models/jw-knee24/paper_workflow.xml)
 
-#define KNEESIM_REQUIRE_SETUP_DATA()                                                                         \
-  do {                                                                                                       \
-    if (!fs::exists(test::sourcePath("data/kgc4-jw/markers/jw_ngait_og3.c3d"))) \
-      GTEST_SKIP() << "the setup files' data folder <repo>/data is not there";                    \
-  } while (0)
-
 const WorkflowTrialResult& findTrial(const WorkflowReport& r, const std::string& name) {
   for (const auto& t : r.trials)
     if (t.name == name) return t;
@@ -641,7 +635,7 @@ void checkThePapersClaimOfAGoodFitOverMostOfTheCycle(const WorkflowReport& r) {
 // The whole JW workflow once (about 20 s), then the three groups of figures above.
 TEST(KneeContactWorkflow, JwPaperWorkflow) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   const WorkflowReport r = runJw("wf_jw");
   {
     SCOPED_TRACE("contact area against the paper");
@@ -670,7 +664,7 @@ TEST(KneeContactWorkflow, JwPaperWorkflow) {
 // give the same areas and the same K. The hinge costs ~0.5 s per grid knot, the model ~0 s.
 TEST(KneeContactWorkflow, JwHingeAndModelKinematicsAgree) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
-  KNEESIM_REQUIRE_SETUP_DATA();
+  KNEESIM_REQUIRE_BUNDLED_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   const auto og3Only = [](const std::string& kinematics) {
     return [kinematics](WorkflowSetup& s) {
       s.kinematics = kinematics;
