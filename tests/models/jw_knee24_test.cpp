@@ -256,7 +256,8 @@ TEST(JwKnee24, RegeneratesFromTheUfModelAndTheImplantFiles) {
     EXPECT_LT((committed->markers[k].p_BM - r.model->markers[k].p_BM).norm(), 1e-12) << committed->markers[k].name;
   for (size_t c = 0; c < committed->coordinates.size(); ++c) {
     EXPECT_NEAR(committed->coordinates[c].default_value, r.model->coordinates[c].default_value, 1e-12);
-    EXPECT_EQ(committed->coordinates[c].range_min, r.model->coordinates[c].range_min);
+    // Knee and patellofemoral flexion ranges start at the first seated knot: round-off as the couplers.
+    EXPECT_NEAR(committed->coordinates[c].range_min, r.model->coordinates[c].range_min, 1e-9);
   }
 }
 
