@@ -49,7 +49,10 @@ def main():
             continue
         src = os.path.join(repo, entry)
         dst = os.path.join(work, entry)
-        (shutil.copytree if os.path.isdir(src) else shutil.copy2)(src, dst, symlinks=True)
+        if os.path.isdir(src):
+            shutil.copytree(src, dst, symlinks=True)
+        else:
+            shutil.copy2(src, dst, follow_symlinks=False)
     os.symlink(build, os.path.join(work, "build"))
     print(f"README commands: {len(cmds)}, run in {work}")
     for i, cmd in enumerate(cmds, 1):
