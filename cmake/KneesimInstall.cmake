@@ -10,7 +10,8 @@ install(TARGETS kneesim_engine EXPORT kneesimTargets
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT engine
   INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/kneesim)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/engine/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/kneesim
-  COMPONENT engine FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
+  COMPONENT engine FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h"
+  PATTERN "*_detail.hpp" EXCLUDE PATTERN "*_internal.hpp" EXCLUDE)  # internal to a module's files
 install(EXPORT kneesimTargets NAMESPACE kneesim:: FILE kneesimTargets.cmake
   DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/kneesim COMPONENT engine)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/kneesimConfig.cmake.in
