@@ -247,8 +247,16 @@ void addModelWarnings(const model::Model& m, std::vector<std::string>& out) {
 }  // namespace
 
 IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
-  IkReport report;
   model::ModelPtr model = loadModel(setup);
+  if (!fs::exists(setup.marker_file))
+    throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
+  return runIk(setup, std::move(model), io::readMarkerFile(setup.marker_file), options);
+}
+
+IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable markers, const IkRunOptions& options) {
+  KNEESIM_CHECK(model != nullptr, "runIk needs a model");
+  IkReport report;
+  report.model = model;
   const model::Model& m = *model;
   addModelWarnings(m, report.warnings);
   sim::System system(model);
@@ -261,9 +269,6 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
     report.warnings.push_back(os.str());
   }
 
-  if (!fs::exists(setup.marker_file))
-    throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
-  io::MarkerTable markers = io::readMarkerFile(setup.marker_file);
   if (!setup.marker_rotation_deg.isZero()) {
     const Eigen::Matrix3d R = model::poseFromXYZ(setup.marker_rotation_deg * (M_PI / 180.0), Eigen::Vector3d::Zero()).linear();
     for (Eigen::Vector3d& p : markers.positions)
@@ -467,9 +472,6 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
 
   // Outputs: all prepared, then committed together.
   const double deg = 180.0 / M_PI;
-  AtomicFileSet own_outputs;
-  AtomicFileSet& outputs = options.stage ? *options.stage : own_outputs;
-  const size_t staged_before = outputs.getPaths().size();
   io::Storage motion;
   motion.name = setup.name.empty() ? "ik" : setup.name;
   motion.in_degrees = true;
@@ -482,6 +484,13 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
       motion.data(k, c + 1) =
           solutions[k][c] * (m.coordinates[c].motion_type == model::MotionType::Rotational ? deg : 1.0);
   }
+  if (!options.write) {
+    report.motion = std::move(motion);
+    return report;
+  }
+  AtomicFileSet own_outputs;
+  AtomicFileSet& outputs = options.stage ? *options.stage : own_outputs;
+  const size_t staged_before = outputs.getPaths().size();
   outputs.addContents(setup.output_motion_file, io::formatStorage(motion));
 
   const std::string prefix =

@@ -29,7 +29,9 @@
 #include "core/error.hpp"
 #include "core/xml.hpp"
 #include "ik/solver.hpp"
+#include "io/marker_table.hpp"
 #include "io/storage.hpp"
+#include "model/model.hpp"
 
 namespace kneesim::ik {
 
@@ -108,6 +110,7 @@ struct IkReport {
   std::vector<std::string> warnings;
   std::vector<std::string> outputs;    ///< Files written (or staged, see IkRunOptions::stage).
   io::Storage motion;                  ///< The motion as written (angles in degrees).
+  model::ModelPtr model;               ///< The model the run used.
   double mean_rms = 0, max_error = 0;
   double seconds_solving = 0;
   int iterations = 0;                  ///< Gauss-Newton iterations over all frames.
@@ -121,6 +124,9 @@ struct IkRunOptions {
   /// If set, the outputs are staged in this set instead of being committed, so that a larger
   /// workflow can publish them together with its own outputs (or not at all if it fails later).
   AtomicFileSet* stage = nullptr;
+  /// False: nothing is written or staged (the report's motion holds the result), for callers
+  /// that keep the answer in memory, such as the Python bindings.
+  bool write = true;
 };
 
 /// Runs IK as the setup describes and writes the motion (degrees for rotational coordinates, as
@@ -130,6 +136,13 @@ struct IkRunOptions {
 /// solved, and all of them commit together: a failed run leaves none. Throws InputError naming
 /// the file and element for bad input.
 IkReport runIk(const IkSetup& setup, const IkRunOptions& options = {});
+
+/// Runs IK as @p setup describes on @p model and @p markers, which were read or built by the
+/// caller: the setup's model_file and marker_file only name them in messages. The setup's
+/// marker_rotation is applied to @p markers. Writes what runIk() writes unless options.write is
+/// false.
+IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable markers,
+               const IkRunOptions& options = {});
 
 /// Writes a readable summary of @p report (per-marker table, worst frames) to @p os.
 void printIkSummary(const IkReport& report, std::ostream& os);

@@ -252,6 +252,30 @@ TEST(IkTool, OutputsCanBeStagedInAnotherSet) {
   EXPECT_NEAR((mot.data - r.motion.data).cwiseAbs().maxCoeff(), 0.0, 1e-7);  // as written (%.8f)
 }
 
+// A model and markers the caller holds in memory (the Python bindings' case): the setup's tasks
+// and settings apply, its files are not read, and with write = false nothing is written.
+TEST(IkTool, RunsOnAModelAndMarkersInMemoryWithoutWriting) {
+  const ChainCase c = makeChainCase("memory");
+  IkSetup setup = readIkSetup(c.setup);
+  setup.model_file = setup.marker_file = "(not read)";
+  const model::ModelPtr model = model::readOsim(c.dir + "/chain40000.osim");
+  IkRunOptions o;
+  o.write = false;
+  const IkReport r = runIk(setup, model, c.markers, o);
+  EXPECT_EQ(r.model, model);
+  EXPECT_TRUE(r.outputs.empty());
+  EXPECT_EQ(listFiles(c.dir + "/results"), std::vector<std::string>{});
+  ASSERT_EQ(r.motion.getNumRows(), 20);
+  EXPECT_LT(r.max_error, 1e-7);
+  for (int f = 0; f < 20; ++f) {  // the coordinates the six markers determine (see above)
+    const Eigen::VectorXd q = coordinatesOfRow(*model, r.motion, f);
+    for (const char* name : {"q_pin", "q_slide", "q_c_tz"}) {
+      const int k = model->findCoordinate(name);
+      EXPECT_NEAR(q[k], c.truth[f][k], 1e-6) << "frame " << f << " " << name;
+    }
+  }
+}
+
 TEST(IkTool, TheCouplerHoldsAndAFiniteConstraintWeightIsReportedUnused) {
   const ChainCase c = makeChainCase("coupler");
   spit(c.setup, replaced(slurp(c.setup), "<constraint_weight>Infinity", "<constraint_weight>10.0"));
