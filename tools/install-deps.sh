@@ -4,7 +4,8 @@ set -eu
 PKGS="build-essential cmake pkg-config git
       libsimbody-dev libeigen3-dev libfcl-dev coinor-libipopt-dev liburdfdom-dev
       libtinyxml2-dev libcli11-dev nlohmann-json3-dev
-      libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox"
+      libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
+      pybind11-dev python3-dev python3-pytest python3-numpy"
 missing=""
 for p in $PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
