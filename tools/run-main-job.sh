@@ -1,5 +1,6 @@
 #!/bin/sh
-# Builds kneesim and runs the main job:
+# Builds and installs kneesim (tools/install.sh: the command, the engine, the Python module) and runs
+# the main job:
 #  1. Dao & Pouletaut 2015 end to end on subject JW (models/jw-knee24/paper_workflow.xml): IK from the
 #     C3D files, implant contact area, eKnee forces, Hertz law identified on ngait_og3 and predicted on
 #     stairupf1 and chairrise1; summary.json, .sto files and PNG plots (the paper's Figures 6-9);
@@ -20,6 +21,8 @@ done
 data="$(cd "$data" && pwd)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DKNEESIM_DATA_DIR="$data" >/dev/null
 cmake --build build -j"$(nproc)"
+# The kneesim command, the engine and the Python module, for python3 on PATH (tools/install.sh).
+./tools/install.sh
 
 # 1. The paper's workflow. The setup files name the data as ../../data relative to models/jw-knee24
 #    and read share/gap/jw_gap*.xml (../../share/gap), so the copy keeps that layout:
