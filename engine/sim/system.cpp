@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <cstdint>
 
 #include "core/error.hpp"
 
@@ -113,6 +115,9 @@ class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Imp
   SpatialTransformMobilizer(SimTK::SimbodyMatterSubsystem& matter, SimTK::MobilizedBodyIndex self, int nc,
                             std::array<Axis, 6> axes)
       : Implementation(matter, nc, nc, 0), matter_(&matter), self_(self), nc_(nc), axes_(std::move(axes)) {}
+  SpatialTransformMobilizer(const SpatialTransformMobilizer& o)
+      : Implementation(o), matter_(o.matter_), self_(o.self_), nc_(o.nc_), axes_(o.axes_), first_q_(o.first_q_),
+        first_u_(o.first_u_) {}
 
   Implementation* clone() const override { return new SpatialTransformMobilizer(*this); }
 
@@ -129,17 +134,19 @@ class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Imp
     KNEESIM_ASSERT(nu == nc_);
     double q[6];
     loadQ(s, q);
-    SimTK::Vec3 W[3];
-    calcW(q, W);
-    SimTK::SpatialVec V(SimTK::Vec3(0), SimTK::Vec3(0));
+    double rate[6];
+    bool turns = false;
     for (int a = 0; a < 6; ++a) {
-      const double rate = firstDerivative(a, q, u);
-      if (rate == 0) continue;
-      if (a < 3)
-        V[0] += rate * W[a];
-      else
-        V[1] += rate * axes_[a].axis;
+      rate[a] = firstDerivative(a, q, u);
+      turns = turns || (a < 3 && rate[a] != 0);
     }
+    SimTK::SpatialVec V(SimTK::Vec3(0), SimTK::Vec3(0));
+    if (turns) {  // Simbody asks column by column: a translation's column needs no rotation
+      SimTK::Vec3 W[3];
+      calcW(q, W);
+      for (int a = 0; a < 3; ++a) V[0] += rate[a] * W[a];
+    }
+    for (int a = 3; a < 6; ++a) V[1] += rate[a] * axes_[a].axis;
     return V;
   }
 
@@ -160,20 +167,22 @@ class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Imp
     double q[6], qd[6];
     loadQ(s, q);
     loadU(s, qd);
-    SimTK::Vec3 W[3];
-    calcW(q, W);
-    const SimTK::Vec3 w1 = firstDerivative(0, q, qd) * W[0];  // angular velocity of frame 1 in F
-    const SimTK::Vec3 w2 = w1 + firstDerivative(1, q, qd) * W[1];
-    const SimTK::Vec3 Wdot[3] = {SimTK::Vec3(0), SimTK::cross(w1, W[1]), SimTK::cross(w2, W[2])};
-    SimTK::SpatialVec A(SimTK::Vec3(0), SimTK::Vec3(0));
-    for (int a = 0; a < 6; ++a) {
-      const double rate = firstDerivative(a, q, u);
-      const double rate_dot = secondDerivative(a, q, u, qd);
-      if (a < 3)
-        A[0] += rate * Wdot[a] + rate_dot * W[a];
-      else
-        A[1] += rate_dot * axes_[a].axis;
+    double rate[6];
+    bool turns = false;
+    for (int a = 0; a < 3; ++a) {
+      rate[a] = firstDerivative(a, q, u);
+      turns = turns || rate[a] != 0;
     }
+    SimTK::SpatialVec A(SimTK::Vec3(0), SimTK::Vec3(0));
+    if (turns) {  // as in multiplyByHMatrix(): a translation's column needs no rotation
+      SimTK::Vec3 W[3];
+      calcW(q, W);
+      const SimTK::Vec3 w1 = firstDerivative(0, q, qd) * W[0];  // angular velocity of frame 1 in F
+      const SimTK::Vec3 w2 = w1 + firstDerivative(1, q, qd) * W[1];
+      const SimTK::Vec3 Wdot[3] = {SimTK::Vec3(0), SimTK::cross(w1, W[1]), SimTK::cross(w2, W[2])};
+      for (int a = 0; a < 3; ++a) A[0] += rate[a] * Wdot[a] + secondDerivative(a, q, u, qd) * W[a];
+    }
+    for (int a = 3; a < 6; ++a) A[1] += secondDerivative(a, q, u, qd) * axes_[a].axis;
     return A;
   }
 
@@ -190,12 +199,28 @@ class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Imp
 
  private:
   void loadQ(const SimTK::State& s, double* q) const {
-    const SimTK::MobilizedBody& mb = matter_->getMobilizedBody(self_);
-    for (int k = 0; k < nc_; ++k) q[k] = mb.getOneQ(s, k);
+    const SimTK::Vector& Q = s.getQ();
+    const int first = firstIndex(s);
+    for (int k = 0; k < nc_; ++k) q[k] = Q[first + k];
   }
   void loadU(const SimTK::State& s, double* u) const {
-    const SimTK::MobilizedBody& mb = matter_->getMobilizedBody(self_);
-    for (int k = 0; k < nc_; ++k) u[k] = mb.getOneU(s, k);
+    const SimTK::Vector& U = s.getU();
+    firstIndex(s);
+    const int first = first_u_.get();
+    for (int k = 0; k < nc_; ++k) u[k] = U[first + k];
+  }
+  /// Index of this mobilizer's first q in the State, looked up once: Simbody's getOneQ() finds
+  /// it again (with a dynamic_cast) for every coordinate of every call. All States of a System
+  /// share one layout (kneesim sets Euler angles in the default State before copying it).
+  int firstIndex(const SimTK::State& s) const {
+    int i = first_q_.get();
+    if (i < 0) {
+      const SimTK::MobilizedBody& mb = matter_->getMobilizedBody(self_);
+      first_u_.set(int(mb.getFirstUIndex(s)));
+      i = int(mb.getFirstQIndex(s));
+      first_q_.set(i);
+    }
+    return i;
   }
   double value(int a, const double* q) const {
     double x[6] = {0, 0, 0, 0, 0, 0};
@@ -230,18 +255,51 @@ class SpatialTransformMobilizer final : public SimTK::MobilizedBody::Custom::Imp
     return acc;
   }
   /// Rotation axes in F: a0, R1 a1, R1 R2 a2.
+  /// Simbody asks for H and HDot one column at a time, all at the same q: the axes of the
+  /// previous call on this thread are reused when it was this mobilizer (by a unique id, not an
+  /// address that a later mobilizer could reuse) at the same q.
   void calcW(const double* q, SimTK::Vec3 W[3]) const {
+    struct Last {
+      std::uint64_t id = 0;
+      double q[6];
+      SimTK::Vec3 W[3];
+    };
+    static thread_local Last last;
+    if (last.id == id_ && std::equal(q, q + nc_, last.q)) {
+      for (int a = 0; a < 3; ++a) W[a] = last.W[a];
+      return;
+    }
     const SimTK::Rotation R1(value(0, q), axes_[0].axis);
     const SimTK::Rotation R12 = R1 * SimTK::Rotation(value(1, q), axes_[1].axis);
     W[0] = axes_[0].axis.asVec3();
     W[1] = (R1 * axes_[1].axis).asVec3();
     W[2] = (R12 * axes_[2].axis).asVec3();
+    last.id = id_;
+    std::copy(q, q + nc_, last.q);
+    for (int a = 0; a < 3; ++a) last.W[a] = W[a];
   }
+
+  static std::uint64_t nextId() {
+    static std::atomic<std::uint64_t> counter{0};
+    return ++counter;
+  }
+
+  /// A State index shared by threads (every thread stores the same value; first_u_ is stored
+  /// before first_q_ is released), copyable because Simbody clones implementations.
+  struct CachedIndex {
+    mutable std::atomic<int> value{-1};
+    CachedIndex() = default;
+    CachedIndex(const CachedIndex& o) : value(o.value.load(std::memory_order_acquire)) {}
+    int get() const { return value.load(std::memory_order_acquire); }
+    void set(int v) const { value.store(v, std::memory_order_release); }
+  };
 
   const SimTK::SimbodyMatterSubsystem* matter_;
   SimTK::MobilizedBodyIndex self_;
   int nc_;
   std::array<Axis, 6> axes_;
+  CachedIndex first_q_, first_u_;
+  std::uint64_t id_ = nextId();
 };
 
 }  // namespace
@@ -272,6 +330,9 @@ struct Workspace::Impl {
   SimTK::Vector q_unit, u_out;                 // N^-1 columns for qdot != u mobilizers
   Eigen::Matrix<double, Eigen::Dynamic, 6> block;  // one joint's columns while converting
   Eigen::Matrix<double, 6, 6> NInv;
+  // Inverse dynamics buffers, sized once at creation.
+  SimTK::Vector mobility_forces, udot, residual;
+  SimTK::Vector_<SimTK::SpatialVec> body_forces;
 };
 
 Workspace::Workspace(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -466,6 +527,11 @@ std::unique_ptr<Workspace> System::createWorkspace() const {
   impl->q_unit.resize(impl_->nq);
   impl->u_out.resize(impl_->nu);
   impl->NInv.setZero();
+  impl->mobility_forces.resize(impl_->nu);
+  impl->mobility_forces = 0;
+  impl->udot.resize(impl_->nu);
+  impl->residual.resize(impl_->nu);
+  impl->body_forces.resize(impl_->matter.getNumBodies());
   impl_->system.realize(impl->state, SimTK::Stage::Position);
   return std::unique_ptr<Workspace>(new Workspace(std::move(impl)));
 }
@@ -579,6 +645,104 @@ void System::setCouplersEnabled(Workspace& ws, bool enabled) const {
     changed = true;
   }
   if (changed) impl_->system.realize(s, SimTK::Stage::Position);
+}
+
+void System::realizeVelocity(Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  KNEESIM_ASSERT(q.size() == getNumCoordinates() && qdot.size() == getNumCoordinates());
+  SimTK::State& s = ws.impl_->state;
+  SimTK::Vector& Q = s.updQ();
+  SimTK::Vector& U = s.updU();
+  for (int i = 0; i < q.size(); ++i) {
+    Q[impl_->q_index[i]] = q[i];
+    U[impl_->u_index[i]] = qdot[i];
+  }
+  impl_->system.realize(s, SimTK::Stage::Velocity);
+}
+
+void System::calcResidualForces(Workspace& ws, const Eigen::VectorXd& qddot, const SpatialColumns& F_G,
+                                Eigen::Ref<Eigen::VectorXd> tau) const {
+  const model::Model& m = *model_;
+  const Impl& d = *impl_;
+  Workspace::Impl& w = *ws.impl_;
+  KNEESIM_CHECK(qddot.size() == getNumCoordinates() && tau.size() == getNumCoordinates() &&
+                    F_G.cols() == int(m.bodies.size()),
+                "inverse dynamics sizes do not match the model");
+  for (int i = 0; i < qddot.size(); ++i) w.udot[d.u_index[i]] = qddot[i];
+  // Gravity as body forces (the Gravity force element acts only when Dynamics is realised,
+  // which inverse dynamics does not need): m g at the mass centre, moment about the origin.
+  const SimTK::Vec3 g = toSimTK(m.gravity);
+  w.body_forces = SimTK::SpatialVec(SimTK::Vec3(0), SimTK::Vec3(0));
+  for (size_t b = 1; b < m.bodies.size(); ++b) {
+    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.mobod[b]);
+    const SimTK::Vec3 p_BCm_G = mb.getBodyRotation(w.state) * toSimTK(m.bodies[b].mass_center);
+    const SimTK::Vec3 f = m.bodies[b].mass * g + SimTK::Vec3(F_G(3, b), F_G(4, b), F_G(5, b));
+    const SimTK::Vec3 moment = SimTK::cross(p_BCm_G, m.bodies[b].mass * g) + SimTK::Vec3(F_G(0, b), F_G(1, b), F_G(2, b));
+    w.body_forces[d.mobod[b]] += SimTK::SpatialVec(moment, f);
+  }
+  d.matter.calcResidualForceIgnoringConstraints(w.state, w.mobility_forces, w.body_forces, w.udot, w.residual);
+  for (int i = 0; i < tau.size(); ++i) tau[i] = w.residual[d.u_index[i]];
+}
+
+void System::calcTreeKinematics(const Workspace& ws, TreeKinematics& kin) const {
+  const model::Model& m = *model_;
+  const Impl& d = *impl_;
+  const SimTK::State& state = ws.impl_->state;
+  const int nb = int(m.bodies.size()), nc = getNumCoordinates();
+  if (int(kin.X_GB.size()) != nb) kin.X_GB.assign(nb, Eigen::Isometry3d::Identity());
+  if (kin.V_GB.cols() != nb) kin.V_GB.resize(6, nb);
+  if (kin.a_GB.cols() != nb) kin.a_GB.resize(6, nb);
+  if (kin.H.cols() != nc) kin.H.resize(6, nc);
+  for (int b = 0; b < nb; ++b) {
+    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.mobod[b]);
+    kin.X_GB[b] = toEigen(mb.getBodyTransform(state));
+    const SimTK::SpatialVec& V = mb.getBodyVelocity(state);
+    kin.V_GB.col(b) << V[0][0], V[0][1], V[0][2], V[1][0], V[1][1], V[1][2];
+    const SimTK::SpatialVec& a = d.matter.getTotalCoriolisAcceleration(state, d.mobod[b]);
+    kin.a_GB.col(b) << a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2];
+  }
+  for (int c = 0; c < nc; ++c) kin.H.col(c) = getMobilityAxis(ws, c);
+}
+
+void calcBodyAccelerations(const model::Model& m, const TreeKinematics& kin, const Eigen::VectorXd& qddot,
+                           SpatialColumns& A_G) {
+  KNEESIM_CHECK(qddot.size() == int(m.coordinates.size()) && A_G.cols() == int(m.bodies.size()) &&
+                    int(kin.X_GB.size()) == int(m.bodies.size()),
+                "body acceleration sizes do not match the model");
+  // J qddot recursively from the root (the parent's acceleration shifted to the child's origin
+  // has no velocity term here: those are all in a_GB), then a_GB = Jdot qdot.
+  A_G.col(0).setZero();
+  for (const model::Joint& jt : m.joints) {
+    const int b = jt.child_body, p = jt.parent_body;
+    Eigen::Matrix<double, 6, 1> A = A_G.col(p);
+    const Eigen::Vector3d r = kin.X_GB[b].translation() - kin.X_GB[p].translation();
+    A.tail<3>() += Eigen::Vector3d(A_G.col(p).head<3>()).cross(r);
+    for (int c : jt.coordinates) A += qddot[c] * kin.H.col(c);
+    A_G.col(b) = A;
+  }
+  A_G.rightCols(A_G.cols() - 1) += kin.a_GB.rightCols(A_G.cols() - 1);
+}
+
+Eigen::Matrix<double, 6, 1> System::getMobilityAxis(const Workspace& ws, int coordinate) const {
+  const model::Coordinate& co = model_->coordinates[coordinate];
+  const SimTK::MobilizedBody& mb = impl_->matter.getMobilizedBody(impl_->mobod[model_->joints[co.joint].child_body]);
+  const SimTK::SpatialVec H = mb.getHCol(ws.impl_->state, SimTK::MobilizerUIndex(co.index_in_joint));
+  Eigen::Matrix<double, 6, 1> out;
+  out << H[0][0], H[0][1], H[0][2], H[1][0], H[1][1], H[1][2];
+  return out;
+}
+
+Eigen::Matrix<double, 6, 1> System::getBodyVelocity(const Workspace& ws, int body) const {
+  const SimTK::SpatialVec& V = impl_->matter.getMobilizedBody(impl_->mobod[body]).getBodyVelocity(ws.impl_->state);
+  Eigen::Matrix<double, 6, 1> out;
+  out << V[0][0], V[0][1], V[0][2], V[1][0], V[1][1], V[1][2];
+  return out;
+}
+
+std::vector<int> System::getCoordinatesInTreeOrder() const {
+  std::vector<int> order(model_->coordinates.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return impl_->u_index[a] < impl_->u_index[b]; });
+  return order;
 }
 
 }  // namespace kneesim::sim

@@ -16,6 +16,28 @@
 
 namespace kneesim::sim {
 
+/// Spatial vectors of every model body, column b for body b (ground is column 0): rows 0-2 the
+/// rotational part, rows 3-5 the translational part, both expressed in ground (Simbody's
+/// SpatialVec order). As forces: the moment about the body's origin and the force. As motions:
+/// the angular velocity or acceleration and that of the body's origin.
+using SpatialColumns = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// The kinematics of a realised velocity state that recursive dynamics needs, gathered in one
+/// sweep: each of Simbody's accessors looks its subsystem up again, which costs more than the
+/// arithmetic of a Newton-Euler sweep. Filled by System::calcTreeKinematics().
+struct TreeKinematics {
+  std::vector<Eigen::Isometry3d> X_GB;  ///< Per body: its pose in ground.
+  SpatialColumns V_GB;  ///< Per body: angular velocity and velocity of its origin, in ground.
+  SpatialColumns a_GB;  ///< Per body: its acceleration when qddot = 0 (Simbody's total Coriolis acceleration).
+  SpatialColumns H;     ///< Per coordinate: its motion axis (System::getMobilityAxis()).
+};
+
+/// Spatial accelerations of every body of @p model for the accelerations @p qddot at the state
+/// @p kin was gathered from (column b: angular acceleration and acceleration of b's origin, in
+/// ground): A = J qddot + Jdot qdot. @p A_G must have one column per body. No allocation.
+void calcBodyAccelerations(const model::Model& model, const TreeKinematics& kin, const Eigen::VectorXd& qddot,
+                           SpatialColumns& A_G);
+
 /// Per-thread scratch data for a System: the Simbody State and Jacobian buffers.
 class Workspace {
  public:
@@ -85,6 +107,40 @@ class System {
   /// workspace). Inverse kinematics eliminates couplers itself and disables them: Simbody would
   /// otherwise evaluate their errors, allocating, at every realizePosition().
   void setCouplersEnabled(Workspace& ws, bool enabled) const;
+
+  /// Sets the coordinates @p q and their rates @p qdot (model order, SI units) and realises
+  /// velocities. The rates are used as Simbody's speeds u even for mobilizers whose qdot differs
+  /// from u (Ball, Free, Gimbal), as OpenSim's InverseDynamicsTool does. No allocation when the
+  /// workspace's couplers are disabled (see setCouplersEnabled()).
+  void realizeVelocity(Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+
+  /// Inverse dynamics at the realised velocity state with Simbody's own algorithm
+  /// (calcResidualForceIgnoringConstraints, what OpenSim's InverseDynamicsSolver calls): the
+  /// generalised forces tau (model coordinate order) that give the accelerations @p qddot under
+  /// gravity and the applied body forces @p F_G (one column per model body, see SpatialColumns;
+  /// ground's column is ignored), ignoring the couplers: tau = M qddot + C - G - J^T F.
+  /// Simbody allocates in it (about 10 blocks a call): dynamics::InverseDynamics computes the same
+  /// without allocating; this one is the reference it is tested against.
+  void calcResidualForces(Workspace& ws, const Eigen::VectorXd& qddot, const SpatialColumns& F_G,
+                          Eigen::Ref<Eigen::VectorXd> tau) const;
+
+  /// Gathers the kinematics of the state realised by realizeVelocity() into @p kin (see
+  /// TreeKinematics). Allocates only when @p kin is not yet sized for this model.
+  void calcTreeKinematics(const Workspace& ws, TreeKinematics& kin) const;
+
+  /// The motion axis of coordinate @p coordinate after realizePosition(): the spatial velocity
+  /// (angular velocity, velocity of the origin; in ground) of its joint's child body relative to
+  /// the parent for a unit rate of the coordinate (a column of Simbody's H matrix). A load
+  /// (moment about the child's origin, force) on the child does work at the rate axis . load.
+  Eigen::Matrix<double, 6, 1> getMobilityAxis(const Workspace& ws, int coordinate) const;
+
+  /// Spatial velocity of body @p body (angular velocity and velocity of its origin, in ground)
+  /// after realizeVelocity().
+  Eigen::Matrix<double, 6, 1> getBodyVelocity(const Workspace& ws, int body) const;
+
+  /// The model's coordinates in Simbody's mobility order, which is the order OpenSim writes
+  /// generalised forces in (Model::getCoordinatesInMultibodyTreeOrder).
+  std::vector<int> getCoordinatesInTreeOrder() const;
 
   /// Whether N (qdot = N u) is the identity for every mobilizer, so dq = du.
   bool isQDotEqualToU() const { return qdot_is_u_; }

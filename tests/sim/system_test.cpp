@@ -299,5 +299,46 @@ TEST(System, CustomMobilizerMatchesSimbodyFunctionBasedOnOpenSimModels) {
   expectSameAsFunctionBased(test::dataPath("kgc4-jw/model/jw_all_body_scaled.osim"), 20);
 }
 
+// Body accelerations from J qddot + Jdot qdot against central differences of the body
+// velocities along q(t) = q0 + v t + a t^2 / 2, on the fixture with Pin, Slider, Gimbal,
+// Universal and a SIMM-spline CustomJoint; the mobility axes against differences of the poses.
+TEST(System, BodyAccelerationsAndAxesMatchFiniteDifferences) {
+  System sys(model::readOsim(test::sourcePath("tests/model/fixtures/chain40000.osim")));
+  const model::Model& m = sys.getModel();
+  auto ws = sys.createWorkspace();
+  sys.setCouplersEnabled(*ws, false);
+  const int n = sys.getNumCoordinates();
+  Eigen::VectorXd q0(n), v(n), a(n);
+  for (int c = 0; c < n; ++c) {
+    q0[c] = 0.3 * std::sin(1.0 + c);
+    v[c] = 0.8 * std::cos(2.0 + c);
+    a[c] = 1.5 * std::sin(3.0 * c);
+  }
+  auto velocities = [&](double t, SpatialColumns& V) {
+    sys.realizeVelocity(*ws, q0 + v * t + 0.5 * a * t * t, v + a * t);
+    for (size_t b = 0; b < m.bodies.size(); ++b) V.col(b) = sys.getBodyVelocity(*ws, int(b));
+  };
+  const double h = 1e-5;
+  SpatialColumns Vp(6, m.bodies.size()), Vm(6, m.bodies.size()), A(6, m.bodies.size());
+  velocities(h, Vp);
+  velocities(-h, Vm);
+  sys.realizeVelocity(*ws, q0, v);
+  TreeKinematics kin;
+  sys.calcTreeKinematics(*ws, kin);
+  calcBodyAccelerations(m, kin, a, A);
+  for (size_t b = 1; b < m.bodies.size(); ++b)
+    EXPECT_LT((A.col(b) - (Vp.col(b) - Vm.col(b)) / (2 * h)).norm(), 1e-6) << m.bodies[b].name;
+  for (int c = 0; c < n; ++c) {
+    const int b = m.joints[m.coordinates[c].joint].child_body, p = m.joints[m.coordinates[c].joint].parent_body;
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+    e[c] = 1;
+    sys.realizeVelocity(*ws, q0, e);
+    Eigen::Matrix<double, 6, 1> rel = sys.getBodyVelocity(*ws, b) - sys.getBodyVelocity(*ws, p);
+    const Eigen::Vector3d r = sys.getBodyPose(*ws, b).translation() - sys.getBodyPose(*ws, p).translation();
+    rel.tail<3>() -= sys.getBodyVelocity(*ws, p).head<3>().cross(r);  // the parent's rotation carries b
+    EXPECT_LT((sys.getMobilityAxis(*ws, c) - rel).norm(), 1e-12) << m.coordinates[c].name;
+  }
+}
+
 }  // namespace
 }  // namespace kneesim::sim
