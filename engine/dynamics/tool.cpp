@@ -1,0 +1,243 @@
+#include "dynamics/tool.hpp"
+
+#include <ctime>
+#include <filesystem>
+#include <iomanip>
+#include <set>
+
+#include "core/strings.hpp"
+#include "core/xml.hpp"
+#include "model/osim_reader.hpp"
+#include "model/urdf.hpp"
+
+namespace kneesim::dynamics {
+
+namespace fs = std::filesystem;
+
+SourceLocation IdSetup::locate(const std::string& element) const {
+  auto it = locations.find(element);
+  if (it != locations.end()) return it->second;
+  auto tool = locations.find("InverseDynamicsTool");
+  return tool != locations.end() ? tool->second : SourceLocation{setup_file, 0, element};
+}
+
+namespace {
+
+std::string optionalPath(const xml::Node& tool, const char* tag, const std::string& dir) {
+  const std::string v = tool.childText(tag);
+  if (v.empty() || v == "Unassigned") return "";
+  return xml::resolvePath(dir, v);
+}
+
+/// results_directory/name, with ".sto" added when the name has no .sto or .mot extension.
+std::string outputPath(const std::string& results_dir, std::string name) {
+  const std::string low = toLower(name);
+  if (!endsWith(low, ".sto") && !endsWith(low, ".mot")) name += ".sto";
+  return xml::resolvePath(results_dir, name);
+}
+
+}  // namespace
+
+IdSetup readIdSetup(const std::string& path) {
+  if (!fs::exists(path)) throw InputError({path, 0, ""}, "setup file not found");
+  auto doc = xml::Document::load(path);
+  const xml::Node tool = xml::requireSetupElement(*doc, "InverseDynamicsTool");
+  IdSetup s;
+  s.setup_file = path;
+  s.name = tool.nameAttr();
+  s.locations["InverseDynamicsTool"] = tool.where();
+  xml::checkChildren(tool, {"model_file", "coordinates_file", "external_loads_file", "lowpass_cutoff_frequency_for_coordinates",
+                            "time_range", "forces_to_exclude", "results_directory", "output_gen_force_file",
+                            "coordinates_in_degrees", "joints_to_report_body_forces", "output_body_forces_file",
+                            "joint_loads", "joint_loads_on", "joint_loads_expressed_in", "output_joint_loads_file"});
+  for (const xml::Node& c : tool.children()) s.locations[c.name()] = c.where();
+  const std::string dir = fs::path(path).parent_path().string();
+  s.model_file = optionalPath(tool, "model_file", dir);
+  if (s.model_file.empty()) tool.fail("missing <model_file>");
+  s.coordinates_file = optionalPath(tool, "coordinates_file", dir);
+  if (s.coordinates_file.empty()) tool.fail("missing <coordinates_file> (expected the .mot of the coordinates, e.g. IK's output)");
+  s.external_loads_file = optionalPath(tool, "external_loads_file", dir);
+  std::string results = tool.childText("results_directory");
+  if (results.empty() || results == "Unassigned") results = ".";
+  s.results_directory = xml::resolvePath(dir, results);
+  std::string out = tool.childText("output_gen_force_file");
+  if (out.empty() || out == "Unassigned") out = "inverse_dynamics.sto";
+  s.output_gen_force_file = outputPath(s.results_directory, out);
+  std::string jl = tool.childText("output_joint_loads_file");
+  if (jl.empty() || jl == "Unassigned") jl = (s.name.empty() ? std::string("inverse_dynamics") : s.name) + "_joint_loads.sto";
+  s.output_joint_loads_file = outputPath(s.results_directory, jl);
+  s.cutoff_hz = tool.childDouble("lowpass_cutoff_frequency_for_coordinates", -1.0);
+  if (!std::isfinite(s.cutoff_hz))
+    tool.child("lowpass_cutoff_frequency_for_coordinates").fail("expected a number of Hz (negative for none), got " +
+                                                                tool.childText("lowpass_cutoff_frequency_for_coordinates"));
+  if (xml::Node tr = tool.child("time_range"); tr && !tr.text().empty()) {
+    const auto v = tr.toDoubles();
+    if (v.size() != 2) tr.fail("expected 2 numbers (start end), got " + std::to_string(v.size()));
+    if (!(v[0] <= v[1])) tr.fail("expected start <= end, got " + tr.text());
+    s.time_start = v[0];
+    s.time_end = v[1];
+  }
+  if (xml::Node d = tool.child("coordinates_in_degrees"); d && !d.text().empty()) s.coordinates_in_degrees = d.toBool() ? 1 : 0;
+  s.forces_to_exclude = tool.child("forces_to_exclude") ? tool.child("forces_to_exclude").toWords() : std::vector<std::string>{};
+  if (xml::Node j = tool.child("joints_to_report_body_forces")) s.joints_to_report_body_forces = j.toWords();
+  if (xml::Node j = tool.child("joint_loads")) s.joint_loads = j.toWords();
+  try {
+    if (xml::Node n = tool.child("joint_loads_on"); n && !n.text().empty()) s.joint_loads_on = parseLoadOnBody(n.text());
+  } catch (const std::invalid_argument& e) {
+    tool.child("joint_loads_on").fail(e.what());
+  }
+  try {
+    if (xml::Node n = tool.child("joint_loads_expressed_in"); n && !n.text().empty())
+      s.joint_loads_frame = parseLoadFrame(n.text());
+  } catch (const std::invalid_argument& e) {
+    tool.child("joint_loads_expressed_in").fail(e.what());
+  }
+  return s;
+}
+
+namespace {
+
+double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
+
+model::ModelPtr loadModel(const IdSetup& setup) {
+  if (!fs::exists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
+  if (endsWith(toLower(setup.model_file), ".urdf")) return model::readUrdf(setup.model_file);
+  return model::readOsim(setup.model_file);
+}
+
+/// Whether an ignored model component is a force OpenSim would apply in inverse dynamics.
+bool isForceType(const std::string& type) {
+  return endsWith(type, "Muscle") || endsWith(type, "Actuator") || endsWith(type, "Force") || endsWith(type, "Ligament") ||
+         endsWith(type, "Spring") || endsWith(type, "Damper") || endsWith(type, "Bushing") || type == "Blankevoort1991Ligament";
+}
+
+/// The model forces OpenSim would apply that forces_to_exclude does not exclude.
+std::vector<std::string> forcesNotExcluded(const model::Model& m, const std::vector<std::string>& exclude) {
+  std::set<std::string> ex;
+  for (const std::string& e : exclude) ex.insert(toLower(e));
+  if (ex.count("all")) return {};
+  std::vector<std::string> out;
+  for (const model::IgnoredComponent& c : m.ignored) {
+    if (!isForceType(c.type)) continue;
+    const bool muscle = endsWith(c.type, "Muscle");
+    const bool actuator = muscle || endsWith(c.type, "Actuator");
+    if (ex.count(toLower(c.name)) || (muscle && ex.count("muscles")) || (actuator && ex.count("actuators"))) continue;
+    out.push_back(c.type + " " + c.name);
+  }
+  return out;
+}
+
+std::vector<JointLoadRequest> resolveJointLoads(const IdSetup& setup, const model::Model& m) {
+  std::vector<JointLoadRequest> out;
+  for (const std::string& name : setup.joint_loads) {
+    if (equalsIgnoreCase(name, "all")) {
+      out.clear();
+      for (size_t j = 0; j < m.joints.size(); ++j) out.push_back({int(j), setup.joint_loads_on, setup.joint_loads_frame});
+      return out;
+    }
+    const int j = m.findJoint(name);
+    if (j < 0) throw InputError(setup.locate("joint_loads"), "expected a joint of " + setup.model_file + ", got '" + name + "'");
+    out.push_back({j, setup.joint_loads_on, setup.joint_loads_frame});
+  }
+  return out;
+}
+
+bool fileSaysDegrees(const io::Storage& s) {
+  if (s.in_degrees) return true;
+  for (const auto& [k, v] : s.header)
+    if (equalsIgnoreCase(k, "Angles") && startsWith(toLower(v), "are in degrees")) return true;
+  return false;
+}
+
+}  // namespace
+
+IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& options) {
+  const double cpu0 = cpuSeconds();
+  IdReport report;
+  const model::ModelPtr model = loadModel(setup);
+  for (const std::string& f : forcesNotExcluded(*model, setup.forces_to_exclude))
+    report.warnings.push_back("OpenSim would apply " + f + " (not in forces_to_exclude); kneesim does not simulate it");
+  if (!setup.joints_to_report_body_forces.empty())
+    report.warnings.push_back("joints_to_report_body_forces is not written; joint_loads gives the net joint loads");
+
+  if (!fs::exists(setup.coordinates_file))
+    throw InputError(setup.locate("coordinates_file"), "coordinates file not found: " + setup.coordinates_file);
+  const io::Storage coords = io::readStorage(setup.coordinates_file);
+  CoordinateSmoothingOptions so;
+  so.cutoff_hz = setup.cutoff_hz;
+  so.in_degrees = setup.coordinates_in_degrees >= 0 ? setup.coordinates_in_degrees == 1 : fileSaysDegrees(coords);
+  const CoordinateTrajectories traj(*model, coords, setup.coordinates_file, so);
+  for (const std::string& c : traj.getMissing())
+    report.warnings.push_back("coordinate '" + c + "' is not in the coordinates file: held at its default value");
+
+  std::unique_ptr<ExternalLoads> loads;
+  if (!setup.external_loads_file.empty()) {
+    if (!fs::exists(setup.external_loads_file))
+      throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
+    loads = std::make_unique<ExternalLoads>(readExternalLoads(setup.external_loads_file), *model);
+    if (!loads->getSpec().kinematics_file.empty())
+      report.warnings.push_back("external_loads_model_kinematics_file is not used (as in OpenSim 4's InverseDynamicsTool)");
+  }
+
+  const std::vector<double> times =
+      selectFrameTimes(traj.getTimes(), setup.time_start, setup.time_end, traj.getStartTime(), traj.getEndTime());
+  if (times.empty())
+    throw InputError(setup.locate("time_range"), "expected a time range overlapping the coordinates (" +
+                                                     formatSignificant(traj.getStartTime(), 6) + " to " +
+                                                     formatSignificant(traj.getEndTime(), 6) + " s), got " +
+                                                     formatSignificant(setup.time_start, 6) + " to " +
+                                                     formatSignificant(setup.time_end, 6) + " s");
+  if (loads) {
+    const double a = times.front(), b = times.back(), eps = 1e-9;
+    if (b < loads->getStartTime() - eps || a > loads->getEndTime() + eps)
+      throw InputError(setup.locate("external_loads_file"),
+                       "expected force data overlapping the analysed times " + formatSignificant(a, 6) + " to " +
+                           formatSignificant(b, 6) + " s, got " + formatSignificant(loads->getStartTime(), 6) + " to " +
+                           formatSignificant(loads->getEndTime(), 6) + " s in " + loads->getSpec().datafile);
+    if (a < loads->getStartTime() - eps || b > loads->getEndTime() + eps)
+      report.warnings.push_back("the force data (" + formatSignificant(loads->getStartTime(), 6) + " to " +
+                                formatSignificant(loads->getEndTime(), 6) +
+                                " s) do not cover every analysed frame: their splines are extrapolated there");
+  }
+  const std::vector<JointLoadRequest> joints = resolveJointLoads(setup, *model);
+
+  const InverseDynamics id(model);
+  const double cpu1 = cpuSeconds();
+  const TrajectoryResult result = calcInverseDynamicsTrajectory(id, traj, loads.get(), times, joints);
+  report.seconds_solving = cpuSeconds() - cpu1;
+  report.frames = int(times.size());
+  report.generalized_forces = makeGeneralizedForceStorage(id.getSystem(), result);
+  report.generalized_forces.header.emplace_back("inDegrees", "no");
+
+  AtomicFileSet own;
+  AtomicFileSet& out = options.stage ? *options.stage : own;
+  const size_t before = out.getPaths().size();
+  out.addContents(setup.output_gen_force_file, io::formatStorage(report.generalized_forces));
+  if (!joints.empty()) {
+    report.joint_loads = makeJointLoadStorage(*model, joints, result);
+    out.addContents(setup.output_joint_loads_file, io::formatStorage(report.joint_loads));
+  }
+  if (!options.stage) own.commit();
+  const auto paths = out.getPaths();
+  report.outputs.assign(paths.begin() + long(before), paths.end());
+  report.seconds_total = cpuSeconds() - cpu0;
+  return report;
+}
+
+void printIdSummary(const IdReport& report, std::ostream& os) {
+  const io::Storage& g = report.generalized_forces;
+  os << "Inverse dynamics: " << report.frames << " frames";
+  if (report.frames > 0)
+    os << " (" << formatSignificant(g.data(0, 0), 6) << " to " << formatSignificant(g.data(g.getNumRows() - 1, 0), 6) << " s)";
+  os << ", " << std::fixed << std::setprecision(1) << 1e6 * report.seconds_solving / std::max(1, report.frames)
+     << " us per frame, " << std::setprecision(3) << report.seconds_total << " s in all (CPU)\n";
+  os.unsetf(std::ios::floatfield);
+  if (report.frames > 0) os << "  largest magnitude per coordinate:\n";
+  for (size_t c = 1; report.frames > 0 && c < g.labels.size(); ++c)
+    os << "    " << std::left << std::setw(28) << g.labels[c] << std::right << formatSignificant(g.data.col(c).cwiseAbs().maxCoeff(), 4)
+       << "\n";
+  for (const std::string& w : report.warnings) os << "  warning: " << w << "\n";
+  for (const std::string& f : report.outputs) os << "  wrote " << f << "\n";
+}
+
+}  // namespace kneesim::dynamics

@@ -1,0 +1,87 @@
+#pragma once
+// OpenSim's InverseDynamicsTool: read its setup XML, run inverse dynamics over a coordinate
+// file with external loads, write the generalised forces (and, kneesim's addition, net joint
+// loads).
+//
+// Setup elements read as OpenSim reads them: model_file, coordinates_file,
+// lowpass_cutoff_frequency_for_coordinates, time_range, external_loads_file, forces_to_exclude,
+// results_directory, output_gen_force_file, coordinates_in_degrees (OpenSim 3's; when absent,
+// the file's inDegrees or its "Angles are in degrees." line decides).
+// kneesim's additions: joint_loads (joint names or All), joint_loads_on (child|parent),
+// joint_loads_expressed_in (ground|parent|child), output_joint_loads_file.
+// Differences on purpose:
+// - Without a time_range the analysed frames stop at the coordinate file's own first and last
+//   rows (OpenSim would also analyse the reflected padding added for filtering).
+// - Model forces kneesim does not simulate (muscles, ligaments, springs, actuators) are left out
+//   whatever forces_to_exclude says; a run names those OpenSim would have applied.
+// - joints_to_report_body_forces (OpenSim's equivalent body forces) is read, not written: a
+//   warning points to joint_loads.
+
+#include <limits>
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "core/atomic_file.hpp"
+#include "core/error.hpp"
+#include "dynamics/trajectory.hpp"
+#include "io/storage.hpp"
+
+namespace kneesim::dynamics {
+
+/// The contents of an InverseDynamicsTool setup file, paths resolved against its folder.
+struct IdSetup {
+  std::string setup_file;
+  std::string name;
+  std::string model_file;
+  std::string coordinates_file;
+  std::string external_loads_file;  ///< "" for none.
+  std::string results_directory;
+  std::string output_gen_force_file;     ///< Resolved path (results_directory/..., .sto added).
+  std::string output_joint_loads_file;   ///< Resolved path.
+  double cutoff_hz = -1.0;
+  double time_start = -std::numeric_limits<double>::infinity();
+  double time_end = std::numeric_limits<double>::infinity();
+  int coordinates_in_degrees = -1;  ///< 1 yes, 0 no, -1 from the file.
+  std::vector<std::string> forces_to_exclude;
+  std::vector<std::string> joint_loads;  ///< Joint names, or "All".
+  LoadOnBody joint_loads_on = LoadOnBody::Child;
+  LoadFrame joint_loads_frame = LoadFrame::Child;
+  std::vector<std::string> joints_to_report_body_forces;
+  std::map<std::string, SourceLocation> locations;
+
+  /// Location of element @p element (the tool element if it was not written).
+  SourceLocation locate(const std::string& element) const;
+};
+
+/// Reads an InverseDynamicsTool setup (<OpenSimDocument><InverseDynamicsTool> or bare). Throws
+/// InputError (file:line: element: ...) for a missing file, unknown element or bad value.
+IdSetup readIdSetup(const std::string& path);
+
+/// What a run did.
+struct IdReport {
+  io::Storage generalized_forces;  ///< As written.
+  io::Storage joint_loads;         ///< As written (no columns if none were asked for).
+  std::vector<std::string> warnings;
+  std::vector<std::string> outputs;
+  int frames = 0;
+  double seconds_solving = 0;      ///< CPU time of the frame loop (smoothing excluded).
+  double seconds_total = 0;        ///< CPU time of the whole run.
+};
+
+/// Options for running.
+struct IdRunOptions {
+  /// If set, outputs are staged here instead of committed (see ik::IkRunOptions::stage).
+  AtomicFileSet* stage = nullptr;
+};
+
+/// Runs the setup and writes its outputs, all after every frame is computed. Throws InputError
+/// for bad input: a missing file, a body or column that does not exist, NaN, times of the force
+/// data that do not overlap the analysed frames.
+IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& options = {});
+
+/// A readable summary of @p report.
+void printIdSummary(const IdReport& report, std::ostream& os);
+
+}  // namespace kneesim::dynamics
