@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
+#include "dynamics/tool.hpp"
 #include "gap/tool.hpp"
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
@@ -27,6 +28,11 @@ void runIkTool(const std::string& setup_path, const RunOptions& options) {
   if (options.out) ik::printIkSummary(report, *options.out);
 }
 
+void runIdTool(const std::string& setup_path, const RunOptions& options) {
+  const dynamics::IdReport report = dynamics::runInverseDynamicsTool(dynamics::readIdSetup(setup_path));
+  if (options.out) dynamics::printIdSummary(report, *options.out);
+}
+
 void runContactAreaTool(const std::string& setup_path, const RunOptions& options) {
   const ContactAreaSetup setup = readContactAreaSetup(setup_path);
   const ContactAreaReport report = runContactArea(setup, {options.progress});
@@ -47,6 +53,7 @@ std::vector<ToolEntry> makeTools() {
                      return startsWith(t, "inversekinem") && endsWith(t, "tool");
                    },
                    runIkTool});
+  tools.push_back({"id", "InverseDynamicsTool", nullptr, runIdTool});
   tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
   tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
   tools.push_back({"contact-area", "ContactAreaTool", nullptr, runContactAreaTool});

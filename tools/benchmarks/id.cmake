@@ -1,0 +1,1 @@
+kneesim_add_benchmark(id MODULES dynamics)
