@@ -5,85 +5,36 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 #include <random>
 
 #include "dynamics/coordinate_smoothing.hpp"
 #include "dynamics/external_loads.hpp"
 #include "dynamics/trajectory.hpp"
 #include "model/osim_reader.hpp"
+#include "support/allocation_counter.hpp"
 #include "support/test_data.hpp"
-
-// Counts heap allocations while g_count_allocations is set (this test binary's operator new).
-namespace {
-std::atomic<long> g_allocations{0};
-std::atomic<bool> g_count_allocations{false};
-void* countedAlloc(std::size_t n) {
-  if (g_count_allocations) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return countedAlloc(n); }
-void* operator new[](std::size_t n) { return countedAlloc(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "pendulum_model.hpp"
 
 namespace kneesim::dynamics {
 namespace {
 
+using test::g_allocations;
+using test::g_count_allocations;
+
 using model::Vec3;
 
-constexpr double kMass = 2.5, kL = 0.4, kIzz = 0.03, kG = 9.81;
+constexpr double kMass = 2.5, kL = 0.4, kIzz = 0.03, kG = 9.81, kBlock = 1.5;
 
-/// ground -Pin about z (at the origin)-> bar with its mass centre at (kL, 0, 0), then (optionally)
-/// -Slider along the bar's x axis (at the bar's origin)-> block of mass kMass at the slider.
+/// The bar on a pin at the origin with its mass centre at (kL, 0, 0), optionally with the block.
 std::shared_ptr<model::Model> makePendulum(bool with_slider) {
-  auto m = std::make_shared<model::Model>();
-  m->name = "pendulum";
-  m->format_version = 40000;
-  m->gravity = Vec3(0, -kG, 0);
-  m->bodies.resize(with_slider ? 3 : 2);
-  m->bodies[0].name = "ground";
-  m->bodies[1].name = "bar";
-  m->bodies[1].mass = kMass;
-  m->bodies[1].mass_center = Vec3(kL, 0, 0);
-  m->bodies[1].inertia = Eigen::Vector3d(0.01, 0.02, kIzz).asDiagonal();
-  model::Coordinate c;
-  c.name = "angle";
-  c.joint = 0;
-  m->coordinates.push_back(c);
-  model::Joint pin;
-  pin.name = "pin";
-  pin.type = model::JointType::Pin;
-  pin.parent_body = 0;
-  pin.child_body = 1;
-  pin.coordinates = {0};
-  m->joints.push_back(pin);
-  if (with_slider) {
-    m->bodies[2].name = "block";
-    m->bodies[2].mass = 1.5;
-    m->bodies[2].inertia = Eigen::Matrix3d::Identity() * 1e-3;
-    model::Coordinate s;
-    s.name = "slide";
-    s.motion_type = model::MotionType::Translational;
-    s.joint = 1;
-    m->coordinates.push_back(s);
-    model::Joint sl;
-    sl.name = "slider";
-    sl.type = model::JointType::Slider;
-    sl.parent_body = 1;
-    sl.child_body = 2;
-    sl.coordinates = {1};
-    m->joints.push_back(sl);
-  }
-  m->finalize();
-  return m;
+  test::PendulumSpec s;
+  s.mass = kMass;
+  s.mass_center = Vec3(kL, 0, 0);
+  s.inertia = Vec3(0.01, 0.02, kIzz);
+  s.gravity = kG;
+  s.block_mass = with_slider ? kBlock : 0.0;
+  return test::makePendulum(s);
 }
 
 Eigen::VectorXd vec(std::initializer_list<double> v) {
@@ -142,12 +93,12 @@ TEST(InverseDynamics, SliderCarriesTheBlockAndThePinCarriesBoth) {
   id.calcGeneralizedForces(*ws, vec({0.0, 0.0}), tau);
   // Statics: the slider holds the block's weight along the bar, m2 g sin q; the pin holds both
   // moments, (m L + m2 s) g cos q.
-  EXPECT_NEAR(tau[1], 1.5 * kG * std::sin(q), 1e-10);
-  EXPECT_NEAR(tau[0], (kMass * kL + 1.5 * s) * kG * std::cos(q), 1e-10);
+  EXPECT_NEAR(tau[1], kBlock * kG * std::sin(q), 1e-10);
+  EXPECT_NEAR(tau[0], (kMass * kL + kBlock * s) * kG * std::cos(q), 1e-10);
   sim::SpatialColumns F(6, 3);
   id.calcJointLoads(*ws, vec({0.0, 0.0}), F);
-  EXPECT_LT((Vec3(F.col(2).tail<3>()) - Vec3(0, 1.5 * kG, 0)).norm(), 1e-10);
-  EXPECT_LT((Vec3(F.col(1).tail<3>()) - Vec3(0, (1.5 + kMass) * kG, 0)).norm(), 1e-10);
+  EXPECT_LT((Vec3(F.col(2).tail<3>()) - Vec3(0, kBlock * kG, 0)).norm(), 1e-10);
+  EXPECT_LT((Vec3(F.col(1).tail<3>()) - Vec3(0, (kBlock + kMass) * kG, 0)).norm(), 1e-10);
 }
 
 /// The generalised forces equal Simbody's (calcResidualForceIgnoringConstraints, what OpenSim

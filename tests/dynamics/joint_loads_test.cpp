@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "dynamics/inverse_dynamics.hpp"
+#include "pendulum_model.hpp"
 
 namespace kneesim::dynamics {
 namespace {
@@ -15,33 +16,17 @@ using model::Vec3;
 
 constexpr double kMass = 3.0, kG = 9.81, kL = 0.4;
 
-/// ground -Pin about z-> bar; the pin sits at ground (0, 1, 0) and at the bar's (-0.1, 0, 0);
-/// the bar's mass centre is at its (kL, 0, 0), so 0.5 m from the pin.
+/// The bar on a pin at ground (0, 1, 0) and at the bar's (-0.1, 0, 0); the bar's mass centre is
+/// at its (kL, 0, 0), so 0.5 m from the pin.
 model::ModelPtr makeOffsetPendulum() {
-  auto m = std::make_shared<model::Model>();
-  m->format_version = 40000;
-  m->gravity = Vec3(0, -kG, 0);
-  m->bodies.resize(2);
-  m->bodies[0].name = "ground";
-  m->bodies[1].name = "bar";
-  m->bodies[1].mass = kMass;
-  m->bodies[1].mass_center = Vec3(kL, 0, 0);
-  m->bodies[1].inertia = Eigen::Matrix3d::Identity() * 0.02;
-  model::Coordinate c;
-  c.name = "angle";
-  c.joint = 0;
-  m->coordinates.push_back(c);
-  model::Joint pin;
-  pin.name = "pin";
-  pin.type = model::JointType::Pin;
-  pin.parent_body = 0;
-  pin.child_body = 1;
-  pin.X_PF = model::poseFromXYZ(Vec3::Zero(), Vec3(0, 1, 0));
-  pin.X_BM = model::poseFromXYZ(Vec3::Zero(), Vec3(-0.1, 0, 0));
-  pin.coordinates = {0};
-  m->joints.push_back(pin);
-  m->finalize();
-  return m;
+  test::PendulumSpec s;
+  s.mass = kMass;
+  s.mass_center = Vec3(kL, 0, 0);
+  s.inertia = Vec3::Constant(0.02);
+  s.gravity = kG;
+  s.pin_in_ground = Vec3(0, 1, 0);
+  s.pin_in_bar = Vec3(-0.1, 0, 0);
+  return test::makePendulum(s);
 }
 
 TEST(JointLoads, StaticPendulumOnEitherBodyInEveryFrame) {

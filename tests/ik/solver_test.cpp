@@ -2,36 +2,20 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 #include <random>
 
 #include "io/marker_table.hpp"
 #include "model/osim_reader.hpp"
+#include "support/allocation_counter.hpp"
 #include "support/chain_model.hpp"
 #include "support/test_data.hpp"
 
-// Counts heap allocations while g_count_allocations is set (this test binary's operator new).
-namespace {
-std::atomic<long> g_allocations{0};
-std::atomic<bool> g_count_allocations{false};
-void* countedAlloc(std::size_t n) {
-  if (g_count_allocations) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return countedAlloc(n); }
-void* operator new[](std::size_t n) { return countedAlloc(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-
 namespace kneesim::ik {
 namespace {
+
+using test::g_allocations;
+using test::g_count_allocations;
 
 using model::Vec3;
 
