@@ -15,7 +15,7 @@ namespace {
 
 using model::Vec3;
 
-const std::string kDir = test::fixturePath("fixtures/opensim-id/");
+const std::string kDir = test::dataPath("opensim-dynamics-tests/id/");
 
 TEST(ExternalLoads, ReadsOpenSimsFile) {
   const ExternalLoadsSpec s = readExternalLoads(kDir + "subject01_walk1_grf.xml");

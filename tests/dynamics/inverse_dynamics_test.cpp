@@ -107,7 +107,7 @@ TEST(InverseDynamics, SliderCarriesTheBlockAndThePinCarriesBoth) {
 /// translations) at random states with a load on the foot, so the sweep's shifts, inertias,
 /// accelerations and projections are all exercised.
 TEST(InverseDynamics, JointLoadsProjectOntoGeneralizedForces) {
-  auto model = model::readOsim(test::fixturePath("fixtures/opensim-id/subject01.osim"));
+  auto model = model::readOsim(test::dataPath("opensim-dynamics-tests/id/subject01.osim"));
   const InverseDynamics id(model);
   auto ws = id.createWorkspace();
   auto ws2 = id.getSystem().createWorkspace();
@@ -156,7 +156,8 @@ TEST(InverseDynamics, JointLoadsProjectOntoGeneralizedForces) {
 /// The frame loop (coordinates from splines, external loads, inverse dynamics, joint loads)
 /// allocates nothing once its workspace exists.
 TEST(InverseDynamics, FrameLoopOnGait2354DoesNotAllocate) {
-  const std::string dir = test::fixturePath("fixtures/opensim-id/");
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/id/subject01_walk1_grf.mot");
+  const std::string dir = test::dataPath("opensim-dynamics-tests/id/");
   auto model = model::readOsim(dir + "subject01.osim");
   CoordinateSmoothingOptions so;
   so.cutoff_hz = 6;

@@ -57,7 +57,7 @@ std::vector<ColumnComparison> compareWithStandard(const io::Storage& result, con
 
 /// Runs a copied setup with its results in a scratch folder; returns the generalised forces.
 io::Storage runCase(const std::string& setup_name, const std::string& scratch) {
-  IdSetup setup = readIdSetup(test::fixturePath("fixtures/opensim-id/" + setup_name));
+  IdSetup setup = readIdSetup(test::dataPath("opensim-dynamics-tests/id/" + setup_name));
   setup.output_gen_force_file = test::scratchDir(scratch) + "/result.sto";
   const IdReport report = runInverseDynamicsTool(setup);
   EXPECT_TRUE(fs::exists(setup.output_gen_force_file));
@@ -65,7 +65,7 @@ io::Storage runCase(const std::string& setup_name, const std::string& scratch) {
 }
 
 void expectWithinOpenSimTolerance(const io::Storage& result, const std::string& standard_name) {
-  const io::Storage standard = io::readStorage(test::fixturePath("fixtures/opensim-id/" + standard_name));
+  const io::Storage standard = io::readStorage(test::dataPath("opensim-dynamics-tests/id/" + standard_name));
   const auto cmp = compareWithStandard(result, standard);
   EXPECT_EQ(cmp.size(), standard.labels.size() - 1);
   for (const ColumnComparison& c : cmp) {
@@ -91,26 +91,11 @@ TEST(InverseDynamicsTool, Arm26MatchesOpenSim) {
   expectWithinOpenSimTolerance(r, "std_arm26_InverseDynamics.sto");
 }
 
-// The trimmed copy of OpenSim's GRF file gives the same answer as the whole file.
-TEST(InverseDynamicsTool, TrimmedGroundReactionsChangeNothing) {
-  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/id/subject01_walk1_grf.mot");
-  const io::Storage trimmed = runCase("subject01_Setup_InverseDynamics.xml", "id_trimmed");
-  const std::string dir = test::scratchDir("id_full");
-  fs::copy(test::fixturePath("fixtures/opensim-id/subject01_walk1_grf.xml"), dir + "/subject01_walk1_grf.xml");
-  fs::copy(test::dataPath("opensim-dynamics-tests/id/subject01_walk1_grf.mot"), dir + "/subject01_walk1_grf.mot");
-  IdSetup setup = readIdSetup(test::fixturePath("fixtures/opensim-id/subject01_Setup_InverseDynamics.xml"));
-  setup.external_loads_file = dir + "/subject01_walk1_grf.xml";
-  setup.output_gen_force_file = dir + "/result.sto";
-  runInverseDynamicsTool(setup);
-  const io::Storage full = io::readStorage(setup.output_gen_force_file);
-  ASSERT_EQ(full.data.rows(), trimmed.data.rows());
-  EXPECT_LT((full.data - trimmed.data).cwiseAbs().maxCoeff(), 1e-7);  // the .sto's 8 decimals
-}
-
 /// A scratch copy of the subject01 case whose files a test may change.
 std::string copyCase(const std::string& name) {
+  EXPECT_TRUE(fs::exists(test::dataPath("opensim-dynamics-tests/id/subject01_walk1_grf.mot")));
   const std::string dir = test::scratchDir(name);
-  for (const auto& e : fs::directory_iterator(test::fixturePath("fixtures/opensim-id")))
+  for (const auto& e : fs::directory_iterator(test::dataPath("opensim-dynamics-tests/id")))
     if (startsWith(e.path().filename().string(), "subject01")) fs::copy(e.path(), dir + "/" + e.path().filename().string());
   return dir;
 }
@@ -145,13 +130,19 @@ TEST(InverseDynamicsTool, BadInputIsOneLine) {
   }
   {  // Force data that do not overlap the analysed times.
     const std::string dir = copyCase("id_bad_times");
-    replaceInFile(dir + "/subject01_Setup_InverseDynamics.xml", "0.5 1.6", "2.5 3.0");
+    // Keep the GRF's first 0.3 s (its header, labels and 180 rows): the analysis is 0.5-1.6 s.
+    const std::string grf = dir + "/subject01_walk1_grf.mot";
+    const std::vector<std::string_view> lines = splitLines(readFileText(grf));
+    std::ofstream out(grf);
+    for (size_t i = 0; i < 6 + 180; ++i) out << lines[i] << "\n";
+    out.close();
+    replaceInFile(grf, "datarows 9009", "datarows 180");
     const std::string msg = errorOfCase(dir);
     EXPECT_NE(msg.find("external_loads_file: expected force data overlapping the analysed times"), std::string::npos) << msg;
   }
   {  // NaN in the forces.
     const std::string dir = copyCase("id_bad_nan");
-    replaceInFile(dir + "/subject01_walk1_grf.mot", "\t614.2644397\t", "\tNaN\t");
+    replaceInFile(dir + "/subject01_walk1_grf.mot", "\t743.0973413\t", "\tNaN\t");
     const std::string msg = errorOfCase(dir);
     EXPECT_NE(msg.find("subject01_walk1_grf.mot: ground_force_vy: expected finite force data, got nan"), std::string::npos)
         << msg;

@@ -20,7 +20,7 @@ TEST(Trajectory, SelectsFramesFromTheSampleAtOrBeforeEachEnd) {
 }
 
 TEST(Trajectory, WritesOpenSimsColumnsInTreeOrder) {
-  auto model = model::readOsim(test::fixturePath("fixtures/opensim-id/arm26.osim"));
+  auto model = model::readOsim(test::dataPath("opensim-dynamics-tests/id/arm26.osim"));
   const InverseDynamics id(model);
   TrajectoryResult r;
   r.time = {0.0, 0.1};

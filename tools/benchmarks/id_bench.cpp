@@ -24,7 +24,7 @@ double cpuNow() {
   return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
-const std::string kCase = std::string(KNEESIM_SOURCE_DIR) + "/tests/dynamics/fixtures/opensim-id/";
+const std::string kCase = std::string(KNEESIM_DATA_DIR) + "/opensim-dynamics-tests/id/";
 
 /// One frame: q, qdot, qddot from the splines, state, external loads, generalised forces, and
 /// (if asked) the joint loads.
