@@ -36,6 +36,34 @@ std::string outputPath(const std::string& results_dir, std::string name) {
   return xml::resolvePath(results_dir, name);
 }
 
+/// <ForcePlates> of an InverseDynamicsTool setup.
+void readForcePlates(const xml::Node& fp, const std::string& dir, IdSetup& s) {
+  xml::checkChildren(fp, {"c3d_file", "threshold", "lowpass_cutoff_frequency", "marker_rotation", "Foot", "output_grf_file"});
+  if (!s.external_loads_file.empty()) fp.fail("expected either <external_loads_file> or <ForcePlates>, got both");
+  s.locations["ForcePlates"] = fp.where();
+  s.plates_c3d_file = optionalPath(fp, "c3d_file", dir);
+  if (s.plates_c3d_file.empty()) fp.fail("missing <c3d_file>");
+  s.plates.threshold_n = fp.childDouble("threshold", 20.0);
+  if (!(s.plates.threshold_n > 0)) fp.child("threshold").fail("expected a threshold > 0 N, got " + fp.childText("threshold"));
+  s.plates.cutoff_hz = fp.childDouble("lowpass_cutoff_frequency", 30.0);
+  s.plates.rotation_deg = fp.childVec3("marker_rotation", Eigen::Vector3d::Zero());
+  for (const xml::Node& f : fp.children("Foot")) {
+    xml::checkChildren(f, {"body", "markers"});
+    FootSpec foot;
+    foot.name = f.nameAttr();
+    if (foot.name.empty()) f.fail("expected a name attribute (the prefix of the foot's GRF columns), got none");
+    foot.body = f.childText("body");
+    foot.markers = f.child("markers") ? f.child("markers").toWords() : std::vector<std::string>{};
+    if (foot.markers.empty()) f.fail("expected <markers> over the foot (e.g. RHeel RToe), got none");
+    foot.where = f.where();
+    s.plates.feet.push_back(foot);
+  }
+  if (s.plates.feet.empty()) fp.fail("expected at least one <Foot>, got none");
+  std::string grf = fp.childText("output_grf_file");
+  if (grf.empty()) grf = (s.name.empty() ? std::string("inverse_dynamics") : s.name) + "_grf.mot";
+  s.output_grf_file = outputPath(s.results_directory, grf);
+}
+
 }  // namespace
 
 IdSetup readIdSetup(const std::string& path) {
@@ -49,7 +77,8 @@ IdSetup readIdSetup(const std::string& path) {
   xml::checkChildren(tool, {"model_file", "coordinates_file", "external_loads_file", "lowpass_cutoff_frequency_for_coordinates",
                             "time_range", "forces_to_exclude", "results_directory", "output_gen_force_file",
                             "coordinates_in_degrees", "joints_to_report_body_forces", "output_body_forces_file",
-                            "joint_loads", "joint_loads_on", "joint_loads_expressed_in", "output_joint_loads_file"});
+                            "joint_loads", "joint_loads_on", "joint_loads_expressed_in", "output_joint_loads_file",
+                            "ForcePlates"});
   for (const xml::Node& c : tool.children()) s.locations[c.name()] = c.where();
   const std::string dir = fs::path(path).parent_path().string();
   s.model_file = optionalPath(tool, "model_file", dir);
@@ -92,6 +121,7 @@ IdSetup readIdSetup(const std::string& path) {
   } catch (const std::invalid_argument& e) {
     tool.child("joint_loads_expressed_in").fail(e.what());
   }
+  if (const xml::Node fp = tool.child("ForcePlates")) readForcePlates(fp, dir, s);
   return s;
 }
 
@@ -171,7 +201,13 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
     report.warnings.push_back("coordinate '" + c + "' is not in the coordinates file: held at its default value");
 
   std::unique_ptr<ExternalLoads> loads;
-  if (!setup.external_loads_file.empty()) {
+  std::unique_ptr<GroundReactions> plates;
+  if (!setup.plates_c3d_file.empty()) {
+    if (!fs::exists(setup.plates_c3d_file))
+      throw InputError(setup.locate("ForcePlates"), "C3D file not found: " + setup.plates_c3d_file);
+    plates = std::make_unique<GroundReactions>(calcGroundReactions(io::readC3d(setup.plates_c3d_file), setup.plates));
+    loads = std::make_unique<ExternalLoads>(plates->loads, *model, plates->grf);
+  } else if (!setup.external_loads_file.empty()) {
     if (!fs::exists(setup.external_loads_file))
       throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
     loads = std::make_unique<ExternalLoads>(readExternalLoads(setup.external_loads_file), *model);
@@ -188,7 +224,9 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
                                                      formatSignificant(setup.time_start, 6) + " to " +
                                                      formatSignificant(setup.time_end, 6) + " s");
   if (loads) {
-    const double a = times.front(), b = times.back(), eps = 1e-9;
+    // Within a microsecond: the analysed frames sit on OpenSim's resampled grid, which may start a
+    // rounding error before the data's first row.
+    const double a = times.front(), b = times.back(), eps = 1e-6;
     if (b < loads->getStartTime() - eps || a > loads->getEndTime() + eps)
       throw InputError(setup.locate("external_loads_file"),
                        "expected force data overlapping the analysed times " + formatSignificant(a, 6) + " to " +
@@ -213,6 +251,20 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
   AtomicFileSet& out = options.stage ? *options.stage : own;
   const size_t before = out.getPaths().size();
   out.addContents(setup.output_gen_force_file, io::formatStorage(report.generalized_forces));
+  if (plates) {
+    stageGroundReactions(*plates, setup.output_grf_file, fs::path(setup.output_grf_file).replace_extension(".xml").string(), out);
+    for (const PlateAssignment& a : plates->assignments)
+      report.notes.push_back("force plate " + std::to_string(a.plate + 1) + " loaded " + formatSignificant(a.start, 4) + "-" +
+                             formatSignificant(a.end, 4) + " s: foot '" + a.foot + "' (its markers " +
+                             formatSignificant(1e3 * a.distance_m, 3) + " mm from the centre of pressure)");
+    for (const PlateAssignment& a : plates->assignments)
+      if (a.distance_m > 0.2)
+        report.warnings.push_back("force plate " + std::to_string(a.plate + 1) + " at " + formatSignificant(a.start, 4) +
+                                  "-" + formatSignificant(a.end, 4) + " s: the nearest foot's markers are " +
+                                  formatSignificant(1e3 * a.distance_m, 3) +
+                                  " mm from the centre of pressure (both feet on the plate?); all of it went to foot '" +
+                                  a.foot + "'");
+  }
   if (!joints.empty()) {
     report.joint_loads = makeJointLoadStorage(*model, joints, result);
     out.addContents(setup.output_joint_loads_file, io::formatStorage(report.joint_loads));
@@ -236,6 +288,7 @@ void printIdSummary(const IdReport& report, std::ostream& os) {
   for (size_t c = 1; report.frames > 0 && c < g.labels.size(); ++c)
     os << "    " << std::left << std::setw(28) << g.labels[c] << std::right << formatSignificant(g.data.col(c).cwiseAbs().maxCoeff(), 4)
        << "\n";
+  for (const std::string& n : report.notes) os << "  " << n << "\n";
   for (const std::string& w : report.warnings) os << "  warning: " << w << "\n";
   for (const std::string& f : report.outputs) os << "  wrote " << f << "\n";
 }

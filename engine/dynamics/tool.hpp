@@ -8,7 +8,10 @@
 // results_directory, output_gen_force_file, coordinates_in_degrees (OpenSim 3's; when absent,
 // the file's inDegrees or its "Angles are in degrees." line decides).
 // kneesim's additions: joint_loads (joint names or All), joint_loads_on (child|parent),
-// joint_loads_expressed_in (ground|parent|child), output_joint_loads_file.
+// joint_loads_expressed_in (ground|parent|child), output_joint_loads_file; and <ForcePlates>, the
+// external loads straight from a C3D file (dynamics/c3d_loads.hpp): c3d_file, threshold,
+// lowpass_cutoff_frequency, marker_rotation, <Foot name=".."><body/><markers/></Foot>...,
+// output_grf_file (the GRF .mot OpenSim would read, written with its ExternalLoads .xml).
 // Differences on purpose:
 // - Without a time_range the analysed frames stop at the coordinate file's own first and last
 //   rows (OpenSim would also analyse the reflected padding added for filtering).
@@ -25,6 +28,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "dynamics/c3d_loads.hpp"
 #include "dynamics/trajectory.hpp"
 #include "io/storage.hpp"
 
@@ -49,6 +53,9 @@ struct IdSetup {
   LoadOnBody joint_loads_on = LoadOnBody::Child;
   LoadFrame joint_loads_frame = LoadFrame::Child;
   std::vector<std::string> joints_to_report_body_forces;
+  std::string plates_c3d_file;        ///< <ForcePlates>: "" when the loads come from external_loads_file.
+  PlateLoadOptions plates;
+  std::string output_grf_file;        ///< Resolved .mot path; the .xml beside it.
   std::map<std::string, SourceLocation> locations;
 
   /// Location of element @p element (the tool element if it was not written).
@@ -63,6 +70,7 @@ IdSetup readIdSetup(const std::string& path);
 struct IdReport {
   io::Storage generalized_forces;  ///< As written.
   io::Storage joint_loads;         ///< As written (no columns if none were asked for).
+  std::vector<std::string> notes;     ///< What was decided (plate assignments).
   std::vector<std::string> warnings;
   std::vector<std::string> outputs;
   int frames = 0;
