@@ -1,6 +1,7 @@
 #include "core/strings.hpp"
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -105,6 +106,18 @@ std::string formatSignificant(double v, int digits) {
   s.precision(digits);
   s << v;
   return s.str();
+}
+
+std::string formatRoundTrip(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);  // the shortest text that reads back exactly
+  return std::string(buf, r.ptr);
+}
+
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
 }
 
 std::string readFileText(const std::string& path) {

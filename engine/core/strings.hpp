@@ -36,6 +36,13 @@ bool parseBool(std::string_view s, const SourceLocation& where);
 /// "1.5e+06", "nan"): for messages and reports.
 std::string formatSignificant(double v, int digits);
 
+/// The shortest text that reads back as exactly @p v (std::to_chars: "0.004", "66.7", "-90",
+/// "1e-05", "nan"): for numbers written into files that are read again.
+std::string formatRoundTrip(double v);
+
+/// @p s as one word for the POSIX shell: in single quotes, a quote inside written '\''.
+std::string shellQuote(const std::string& s);
+
 /// The elements of @p parts (strings or string views, in iteration order) separated by @p sep:
 /// join({"a", "b"}, ", ") is "a, b"; empty for no elements.
 template <class Range>

@@ -21,13 +21,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// @p s in single quotes for the shell.
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 // @p s as a gnuplot double-quoted string.
 std::string gpString(const std::string& s) {
   std::string out = "\"";

@@ -2,10 +2,10 @@
 
 #include <gtest/gtest.h>
 
-#include <set>
-
 #include <cmath>
+#include <cstdlib>
 #include <limits>
+#include <set>
 
 namespace kneesim {
 namespace {
@@ -50,6 +50,25 @@ TEST(Strings, FormatSignificantDigits) {
   EXPECT_EQ(formatSignificant(123456.0, 6), "123456");
   EXPECT_EQ(formatSignificant(1234567.0, 6), "1.23457e+06");
   EXPECT_EQ(formatSignificant(std::numeric_limits<double>::infinity(), 6), "inf");
+}
+
+TEST(Strings, FormatRoundTripIsTheShortestExactText) {
+  EXPECT_EQ(formatRoundTrip(0.004), "0.004");  // %.17g would write 0.0040000000000000001
+  EXPECT_EQ(formatRoundTrip(66.7), "66.7");
+  EXPECT_EQ(formatRoundTrip(1e-5), "1e-05");
+  EXPECT_EQ(formatRoundTrip(-90), "-90");
+  EXPECT_EQ(formatRoundTrip(0.1 + 0.2), "0.30000000000000004");
+  EXPECT_EQ(formatRoundTrip(1.0 / 3.0), "0.3333333333333333");
+  EXPECT_EQ(formatRoundTrip(6.02214076e23), "6.02214076e+23");
+  EXPECT_EQ(formatRoundTrip(std::numeric_limits<double>::quiet_NaN()), "nan");
+  for (double v : {1.0 / 7.0, 6.02214076e23, -2.5e-300, 123456789.125})
+    EXPECT_EQ(std::strtod(formatRoundTrip(v).c_str(), nullptr), v) << formatRoundTrip(v);
+}
+
+TEST(Strings, ShellQuoteIsOneWord) {
+  EXPECT_EQ(shellQuote("a b"), "'a b'");
+  EXPECT_EQ(shellQuote("it's $HOME"), "'it'\\''s $HOME'");
+  EXPECT_EQ(shellQuote(""), "''");
 }
 
 TEST(Strings, ParseBool) {
