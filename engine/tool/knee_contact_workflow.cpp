@@ -171,7 +171,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
                        "distance_provider", "plugins", "kinematics", "flexion_coordinate", "seating_grid_deg",
                        "body_mass", "Trial", "ContactLaw", "threshold_sensitivity", "agreement_fraction",
                        "results_directory", "plots", "gnuplot", "plot_scripts", "threads", "area_derivatives",
-                       "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file"});
+                       "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file", "timings"});
   s.fit.where = tool.where();
   s.model_file = xml::resolvePath(dir, tool.requireChild("model_file").text());
   ContactAreaSetup& c = s.contact;
@@ -260,6 +260,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
   s.plots = tool.childBool("plots", true);
   s.gnuplot = tool.childText("gnuplot", "gnuplot");
   s.plot_scripts = tool.childBool("plot_scripts", true);
+  s.timings = tool.childBool("timings", true);
   if (xml::Node n = tool.child("threads")) {
     const long t = n.toInt();
     if (t < 0 || t > 64) n.fail("expected 0 (one per core, at most 4) to 64 threads, got " + n.text());
@@ -1318,7 +1319,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
                                      {"flexion_deg", {{"offset_deg", g.offset_deg}, {"gain_per_goniometer_deg", g.gain}}},
                                      {"source", g.source}, {"r", num(g.r)}, {"rms_deg", num(g.rms_deg)}, {"frames", g.frames}};
     }
-    j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
+    if (setup.timings) j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
     trials.push_back(j);
   }
   sj["trials"] = trials;
@@ -1326,7 +1327,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
   sj["plots_problem"] = report.plots_problem;
   sj["warnings"] = report.warnings;
   report.seconds_total = secondsSince(t_start);
-  sj["seconds"] = {{"total_before_writing", report.seconds_total}, {"fit", report.seconds_fit}, {"plots", report.seconds_plots}};
+  if (setup.timings) sj["seconds"] = {{"total_before_writing", report.seconds_total}, {"fit", report.seconds_fit}, {"plots", report.seconds_plots}};
   report.summary_file = (fs::path(setup.results_directory) / "summary.json").string();
   outputs.addContents(report.summary_file, sj.dump(2) + "\n");
 

@@ -110,6 +110,9 @@ struct WorkflowSetup {
   bool plots = true;
   std::string gnuplot = "gnuplot";
   bool plot_scripts = true;  ///< Also write each plot's gnuplot script.
+  /// Report each step's seconds in summary.json (false: leave them out, so that two runs of the
+  /// same setup write the same bytes, as `kneesim batch` checks).
+  bool timings = true;
   /// Threads computing the contact area (each with its own distance-provider context); the
   /// reader turns 0 into one per core, at most 4.
   int threads = 1;
