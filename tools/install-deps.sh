@@ -3,7 +3,7 @@
 set -eu
 PKGS="build-essential cmake pkg-config git
       libsimbody-dev libeigen3-dev libfcl-dev coinor-libipopt-dev liburdfdom-dev
-      libtinyxml2-dev libcli11-dev nlohmann-json3-dev
+      libtinyxml2-dev libcli11-dev nlohmann-json3-dev libcpptoml-dev
       libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
       pybind11-dev python3-dev python3-pytest python3-numpy"
 missing=""

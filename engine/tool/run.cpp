@@ -7,6 +7,7 @@
 #include "gap/tool.hpp"
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
+#include "tool/batch_trial.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/knee_contact_workflow.hpp"
 #include "tool/knee_model.hpp"
@@ -62,6 +63,10 @@ std::vector<ToolEntry> makeTools() {
                      if (o.out) gap::printGapSummary(r, *o.out);
                    }});
   tools.push_back({"knee-contact-workflow", "KneeContactWorkflow", nullptr, runWorkflowTool});
+  tools.push_back({"batch-trial", "BatchTrial", nullptr, [](const std::string& setup, const RunOptions& o) {
+                     const BatchTrialReport r = runBatchTrial(readBatchTrialSetup(setup), o);
+                     if (o.out) printBatchTrialSummary(r, *o.out);
+                   }});
   return tools;
 }
 
