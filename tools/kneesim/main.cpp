@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "batch_command.hpp"
 #include "core/error.hpp"
 #include "gap_commands.hpp"
 #include "ik/tool.hpp"
@@ -69,6 +70,8 @@ int main(int argc, char** argv) {
   // Sim-to-real gap diagnosis: `kneesim gap` and `kneesim synth` (tools/kneesim/gap_commands.cpp).
   kneesim::cli::GapCommandState gap_state;
   kneesim::cli::addGapCommands(app, gap_state);
+  kneesim::cli::BatchCommandState batch_state;  // `kneesim batch` (tools/kneesim/batch_command.cpp)
+  kneesim::cli::addBatchCommand(app, batch_state);
 
   try {
     app.parse(argc, argv);
@@ -82,6 +85,8 @@ int main(int argc, char** argv) {
       opt.out = quiet ? nullptr : &std::cout;
       opt.progress = showProgress;
       kneesim::tool::runSetupFile(setup, opt);
+    } else if (kneesim::cli::isBatchCommand(batch_state)) {
+      kneesim::cli::runBatchCommand(batch_state, quiet);
     } else if (kneesim::cli::isGapCommand(gap_state)) {
       kneesim::cli::runGapCommand(gap_state, quiet);
     } else if (*ikcmd) {
