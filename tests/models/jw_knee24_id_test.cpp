@@ -22,9 +22,10 @@ namespace fs = std::filesystem;
 
 std::string modelPath(const std::string& f) { return test::sourcePath("models/jw-knee24/" + f); }
 
-/// Runs IK then ID of @p trial with every output in a scratch folder; returns the ID setup run.
-dynamics::IdSetup runTrial(const std::string& trial, dynamics::IdReport& report) {
-  const std::string dir = test::scratchDir("jw_id_" + trial);
+/// Runs IK then ID of @p trial with every output in a scratch folder of test @p test's own (ctest
+/// runs the tests of this file at once); returns the ID setup run.
+dynamics::IdSetup runTrial(const std::string& test, const std::string& trial, dynamics::IdReport& report) {
+  const std::string dir = test::scratchDir("jw_id_" + test + "_" + trial);
   ik::IkSetup ik = ik::readIkSetup(modelPath(trial + "_ik_setup.xml"));
   ik.output_motion_file = dir + "/" + trial + "_ik.mot";
   ik.results_directory = dir;
@@ -51,7 +52,7 @@ TEST(JwKnee24Id, NetAxialForceFollowsTheMeasuredKneeForce) {
   for (const std::string trial : {"ngait_og3", "stairupf1"}) {
     KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_" + trial + ".c3d");
     dynamics::IdReport report;
-    const dynamics::IdSetup setup = runTrial(trial, report);
+    const dynamics::IdSetup setup = runTrial("axial", trial, report);
     const io::Storage loads = io::readStorage(setup.output_joint_loads_file);
     const int fy = loads.findColumn("knee_on_tibial_component_in_tibial_component_fy");
     ASSERT_GE(fy, 0);
@@ -76,7 +77,7 @@ TEST(JwKnee24Id, NetAxialForceFollowsTheMeasuredKneeForce) {
 TEST(JwKnee24Id, WrittenGroundReactionsReadBackToTheSameAnswer) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
   dynamics::IdReport report;
-  dynamics::IdSetup setup = runTrial("ngait_og3", report);
+  dynamics::IdSetup setup = runTrial("grf", "ngait_og3", report);
   // The GRF .mot and ExternalLoads .xml written for OpenSim, read back as an ExternalLoads file.
   setup.external_loads_file = fs::path(setup.output_grf_file).replace_extension(".xml").string();
   setup.plates_c3d_file.clear();
