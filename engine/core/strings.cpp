@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -121,6 +122,9 @@ std::string shellQuote(const std::string& s) {
 }
 
 std::string readFileText(const std::string& path) {
+  std::error_code ec;
+  // An ifstream opens a folder and reads nothing from it: say what it is.
+  if (std::filesystem::is_directory(path, ec)) throw InputError({path, 0, ""}, "expected a file, got a folder");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError({path, 0, ""}, std::string("cannot open file: ") + std::strerror(errno));
   std::ostringstream ss;

@@ -7,6 +7,9 @@
 #include <limits>
 #include <set>
 
+#include "support/input_error.hpp"
+#include "support/test_data.hpp"
+
 namespace kneesim {
 namespace {
 
@@ -75,6 +78,13 @@ TEST(Strings, ParseBool) {
   EXPECT_TRUE(parseBool(" TRUE ", {}));
   EXPECT_FALSE(parseBool("false", {}));
   EXPECT_THROW(parseBool("yes", {}), InputError);
+}
+
+TEST(Strings, ReadFileTextNamesAFolderAsOne) {
+  const std::string dir = test::scratchDir("strings_folder");
+  EXPECT_EQ(test::inputErrorOf([&] { readFileText(dir); }), dir + ": expected a file, got a folder");
+  EXPECT_EQ(test::inputErrorOf([&] { readFileText(dir + "/none.txt"); }),
+            dir + "/none.txt: cannot open file: No such file or directory");
 }
 
 TEST(Strings, JoinSeparatesElementsInOrder) {
