@@ -102,7 +102,7 @@ Manifest readCsvManifest(const std::string& path, const std::string& text) {
     ++line_no;
     const std::string_view t = trim(line);
     if (t.empty() || t.front() == '#') continue;
-    const SourceLocation at{path, line_no, ""};
+    const SourceLocation at{path, line_no, header.empty() ? "header" : "row " + std::to_string(m.rows.size() + 1)};
     std::vector<std::string> cells = splitCsvLine(line, at);
     if (header.empty()) {
       for (std::string& c : cells) {
@@ -120,7 +120,7 @@ Manifest readCsvManifest(const std::string& path, const std::string& text) {
       throw InputError(at, "expected " + std::to_string(header.size()) + " cells as in the header, got " +
                                std::to_string(cells.size()));
     ManifestRow row;
-    row.where = {path, line_no, "row " + std::to_string(m.rows.size() + 1)};
+    row.where = at;
     for (size_t i = 0; i < cells.size(); ++i)
       if (!cells[i].empty())
         row.values[header[i]] = {cells[i], {path, line_no, row.where.element + "/" + header[i]}};

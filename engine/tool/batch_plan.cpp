@@ -46,6 +46,7 @@ std::string inputFile(const ManifestValue* v, const std::string& dir) {
   if (!v) return "";
   const fs::path p = fs::path(v->text).is_absolute() ? fs::path(v->text) : fs::absolute(fs::path(dir) / v->text);
   const std::string path = p.lexically_normal().string();
+  if (fs::is_directory(path)) throw InputError(v->where, "expected a file, got a folder: " + path);
   if (!fs::is_regular_file(path)) throw InputError(v->where, "file not found: " + path);
   return path;
 }
@@ -58,12 +59,13 @@ double positive(const ManifestValue* v, double fallback, const std::string& what
 }
 
 // "a b" with both numbers (and, for a time range, a <= b); @p n numbers in all.
-std::string numbers(const ManifestValue* v, size_t n, const std::string& what) {
+std::string numbers(const ManifestValue* v, size_t n, const std::string& what, bool ordered = false) {
   if (!v) return "";
   const auto words = splitWhitespace(v->text);
   std::vector<double> x;
   for (std::string_view w : words) x.push_back(parseDouble(w, v->where));
   if (x.size() != n) throw InputError(v->where, "expected " + what + ", got '" + v->text + "'");
+  if (ordered && x[0] > x[1]) throw InputError(v->where, "expected " + what + " with start <= end, got '" + v->text + "'");
   return join(words, " ");
 }
 
@@ -111,7 +113,7 @@ BatchTrialSpec readBatchTrialSpec(const ManifestRow& row, const std::string& man
   if (runs("ik")) s.markers = inputFile(&require(row, "markers", "a marker file for ik"), manifest_dir);
   else s.markers = inputFile(row.find("markers"), manifest_dir);
   s.ik_tasks = inputFile(row.find("ik_tasks"), manifest_dir);
-  s.time_range = numbers(row.find("time_range"), 2, "two times 'start end' (s)");
+  s.time_range = numbers(row.find("time_range"), 2, "two times 'start end' (s)", true);
   s.marker_rotation = numbers(row.find("marker_rotation"), 3, "three angles 'x y z' (deg)");
   s.accuracy = positive(row.find("accuracy"), s.accuracy, "an accuracy");
   s.motion = inputFile(row.find("motion"), manifest_dir);

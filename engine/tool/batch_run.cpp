@@ -27,13 +27,27 @@ std::string toString(TrialOutcome::Status status) {
 
 namespace {
 
-// The first line of the trial's failure note, or "" without one.
-std::string readFailureNote(const std::string& path) {
+// The first line of the trial's failure note, or "" without one, as the batch reports it: an
+// InputError's own "file:line: ..." line (the note's "error: " kind dropped; "internal error: "
+// kept), a file the trial names relative to its folder named from the batch's output folder
+// (<subject>/<trial>/<file>), so that the summary's line leads to it and reads the same wherever
+// the output folder is (here and on the cluster).
+std::string readFailureNote(const BatchTrialPlan& plan) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return "";
-  const std::string text = readFileText(path);
+  if (!fs::is_regular_file(plan.failure_file, ec)) return "";
+  const std::string text = readFileText(plan.failure_file);  // splitLines gives views into it
   const auto lines = splitLines(text);
-  return lines.empty() ? "" : std::string(trim(lines.front()));
+  std::string note = lines.empty() ? "" : std::string(trim(lines.front()));
+  const std::string input_kind = "error: ";
+  if (!startsWith(note, input_kind)) return note;
+  note = note.substr(input_kind.size());
+  const size_t colon = note.find(':');
+  if (colon != std::string::npos && colon > 0) {
+    const fs::path file = note.substr(0, colon);
+    if (file.is_relative() && fs::is_regular_file(fs::path(plan.folder) / file, ec))
+      note = (fs::path(plan.spec.subject) / plan.spec.trial / file).string() + note.substr(colon);
+  }
+  return note;
 }
 
 }  // namespace
@@ -44,7 +58,7 @@ TrialOutcome readTrialOutcome(const BatchTrialPlan& plan) {
   if (isTrialComplete(plan.completion_file, plan.setup_hash, &why)) {
     o.status = TrialOutcome::Status::done_earlier;
     o.seconds = readCompletionSeconds(plan.completion_file);
-  } else if (std::string note = readFailureNote(plan.failure_file); !note.empty()) {
+  } else if (std::string note = readFailureNote(plan); !note.empty()) {
     o.status = TrialOutcome::Status::failed;
     o.message = note;
   } else if (std::error_code ec; fs::exists(plan.completion_file, ec)) {
@@ -65,7 +79,7 @@ TrialOutcome runTrialInChildProcess(const std::string& kneesim, const BatchTrial
     return o;
   }
   o.status = TrialOutcome::Status::failed;
-  o.message = readFailureNote(plan.failure_file);
+  o.message = readFailureNote(plan);
   if (o.message.empty())
     o.message = p.succeeded() ? "finished without a valid completion marker (" + why + ")"
                               : "kneesim run ended with " + p.describe() + " (see " + plan.log_file + ")";

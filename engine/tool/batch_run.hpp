@@ -62,8 +62,9 @@ std::vector<TrialOutcome> runBatch(const std::vector<BatchTrialPlan>& plans, con
 
 /// The runner of `kneesim batch`: `<kneesim> run <name>_batch.xml` in a child process started in
 /// the trial's folder, its standard output and error in the trial's log; done when it exits with
-/// status 0 and left a valid completion marker, else failed with the trial's failure note, or the
-/// way the process ended.
+/// status 0 and left a valid completion marker, else failed with the trial's failure note (an input
+/// error's own "file:line: ..." line, a file of the trial's folder named <subject>/<trial>/<file>),
+/// or the way the process ended.
 TrialOutcome runTrialInChildProcess(const std::string& kneesim, const BatchTrialPlan& plan);
 
 /// How a trial stands according to its files, without running it: done_earlier (valid completion

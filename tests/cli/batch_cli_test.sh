@@ -28,6 +28,10 @@ grep -q "^s1,ngait_og3,gait,done," "$tmp/j1/batch_summary.csv" || fail "s1/ngait
 grep -q "^s2,ngait_og1,gait,done," "$tmp/j1/batch_summary.csv" || fail "s2/ngait_og1 not done"
 grep -q "^s1,corrupt,gait,failed,.*jw_corrupt.c3d" "$tmp/j1/batch_summary.csv" ||
   fail "the corrupt trial's row does not name its file: $(grep corrupt "$tmp/j1/batch_summary.csv")"
+# The summary's error cell is the C3D reader's own one line, starting with the file.
+grep -q "^s1,corrupt,gait,failed,[0-9.]*,,,,,,,,,,,,,\"$tmp/jw_corrupt.c3d: data: truncated C3D data: .*\"\$" "$tmp/j1/batch_summary.csv" ||
+  fail "the corrupt trial's error cell: $(grep corrupt "$tmp/j1/batch_summary.csv")"
+[ "$(wc -l <"$tmp/j1/batch_summary.csv")" = 4 ] || fail "the summary must have a header and one line per trial"
 [ -f "$tmp/j1/s1/corrupt/s1_corrupt.failed" ] || fail "no failure note for the corrupt trial"
 [ -f "$tmp/j1/s1/corrupt/s1_corrupt.done" ] && fail "the corrupt trial has a completion marker"
 grep -q "s1           ngait_og3      done" "$tmp/out" || fail "printed summary: $(cat "$tmp/out")"
@@ -82,6 +86,10 @@ printf 'subject,trial,tools,model\ns1,t,ik+so,%s\n' "$src/models/jw-knee24/jw_kn
 grep -qF "bad.csv:2: row 1/tools: expected tools among ik, contact, workflow, got 'so'" "$tmp/err" ||
   fail "bad manifest message: $(cat "$tmp/err")"
 [ -d "$tmp/bad_results" ] && fail "a bad manifest created its output folder"
+printf 'subject,trial,tools,model,markers\ns1,t,ik,%s,%s\n' "$src/models/jw-knee24/jw_knee24.osim" "$tmp/none.c3d" >"$tmp/bad.csv"
+"$exe" batch "$tmp/bad.csv" >"$tmp/out" 2>"$tmp/err"
+[ $? = 1 ] && [ "$(wc -l <"$tmp/err")" = 1 ] &&
+  grep -qF "bad.csv:2: row 1/markers: file not found: $tmp/none.c3d" "$tmp/err" || fail "a missing file: $(cat "$tmp/err")"
 
 if [ $failures -gt 0 ]; then
   echo "$failures failure(s)"

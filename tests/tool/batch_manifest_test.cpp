@@ -57,10 +57,11 @@ TEST(BatchManifest, CsvErrorsNameTheLine) {
                                           "body_mass, plots)");
   EXPECT_EQ(error("subject,Subject\n"), f + ":1: header/subject: column 'subject' appears twice");
   EXPECT_EQ(error("subject,\n"), f + ":1: header/: expected a column name, got an empty cell");
-  EXPECT_EQ(error("subject,trial\ns1,t1\ns2\n"), f + ":3: expected 2 cells as in the header, got 1");
+  EXPECT_EQ(error("subject,trial\ns1,t1\ns2\n"), f + ":3: row 2: expected 2 cells as in the header, got 1");
   EXPECT_EQ(error("subject,trial\ns1,\"t1\n"),
-            f + ":2: expected a closing '\"', got the end of the line (a cell cannot span lines)");
-  EXPECT_EQ(error("subject,trial\ns1,\"t1\"x\n"), f + ":2: expected ',' after a quoted cell, got 'x'");
+            f + ":2: row 1: expected a closing '\"', got the end of the line (a cell cannot span lines)");
+  EXPECT_EQ(error("subject,trial\ns1,\"t1\"x\n"), f + ":2: row 1: expected ',' after a quoted cell, got 'x'");
+  EXPECT_EQ(error("\"subject,trial\n"), f + ":1: header: expected a closing '\"', got the end of the line (a cell cannot span lines)");
   EXPECT_EQ(error("# only a comment\n"), f + ": expected a header row naming the columns, got an empty file");
   EXPECT_EQ(error("subject,trial\n"), f + ": expected at least one trial, got none");
 }

@@ -86,6 +86,13 @@ TEST(BatchPlan, BadRowsAreRefusedAtTheirCell) {
   std::ofstream(m) << "subject,trial,tools,model,markers,time_range,body_mass\ns1,walk,ik,m.osim,a.c3d,0.5,\n";
   EXPECT_EQ(test::inputErrorOf([&] { planBatch(readManifest(m), dir); }),
             m + ":2: row 1/time_range: expected two times 'start end' (s), got '0.5'");
+  std::ofstream(m) << "subject,trial,tools,model,markers,time_range\ns1,walk,ik,m.osim,a.c3d,2 1\n";
+  EXPECT_EQ(test::inputErrorOf([&] { planBatch(readManifest(m), dir); }),
+            m + ":2: row 1/time_range: expected two times 'start end' (s) with start <= end, got '2 1'");
+  fs::create_directories(dir + "/trials.c3d");
+  std::ofstream(m) << "subject,trial,tools,model,markers\ns1,walk,ik,m.osim,trials.c3d\n";
+  EXPECT_EQ(test::inputErrorOf([&] { planBatch(readManifest(m), dir); }),
+            m + ":2: row 1/markers: expected a file, got a folder: " + dir + "/trials.c3d");
   std::ofstream(m) << "subject,trial,tools,model,markers,body_mass\ns1,walk,ik,m.osim,a.c3d,-60\n";
   EXPECT_EQ(test::inputErrorOf([&] { planBatch(readManifest(m), dir); }),
             m + ":2: row 1/body_mass: expected a body mass (kg) > 0, got '-60'");

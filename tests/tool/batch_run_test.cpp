@@ -109,15 +109,21 @@ TEST(BatchRun, ResumptionSkipsFinishedTrialsOnly) {
 
 TEST(BatchRun, ReadsHowATrialStandsFromItsFiles) {
   const std::string dir = test::scratchDir("batch_run_read");
-  const auto plans = planTrials(dir, 3);
+  const auto plans = planTrials(dir, 4);
   for (const auto& p : plans) writeTrialSetups(p);
   fakeRun(plans[0], {});
-  std::ofstream(plans[1].failure_file) << "error: a.trc:3: expected 4 columns, got 2\n";
+  std::ofstream(plans[1].failure_file) << "error: /data/a.trc:3: expected 4 columns, got 2\n";
   EXPECT_EQ(readTrialOutcome(plans[0]).status, TrialOutcome::Status::done_earlier);
   const TrialOutcome f = readTrialOutcome(plans[1]);
   EXPECT_EQ(f.status, TrialOutcome::Status::failed);
-  EXPECT_EQ(f.message, "error: a.trc:3: expected 4 columns, got 2");
+  EXPECT_EQ(f.message, "/data/a.trc:3: expected 4 columns, got 2") << "an InputError's own line";
   EXPECT_EQ(readTrialOutcome(plans[2]).status, TrialOutcome::Status::not_run);
+  // A trial's setup named relative to its folder (the trial runs there) is named from the output
+  // folder, where the summary is; an internal error is kept as it is.
+  std::ofstream(plans[3].failure_file) << "error: s3_walk_ik.xml:7: InverseKinematicsTool/time_range: bad\n";
+  EXPECT_EQ(readTrialOutcome(plans[3]).message, "s3/walk/s3_walk_ik.xml:7: InverseKinematicsTool/time_range: bad");
+  std::ofstream(plans[3].failure_file) << "internal error: s3_walk_ik.xml: check failed\n";
+  EXPECT_EQ(readTrialOutcome(plans[3]).message, "internal error: s3_walk_ik.xml: check failed");
   fs::remove(plans[0].folder + "/s0_walk_ik.mot");
   const TrialOutcome gone = readTrialOutcome(plans[0]);
   EXPECT_EQ(gone.status, TrialOutcome::Status::not_run);
@@ -151,7 +157,7 @@ TEST(BatchRun, AChildIsJudgedByItsExitAndItsFiles) {
   const std::string failing = fakeKneesim(dir, "echo 'error: x.c3d: truncated' > s0_walk.failed; exit 1");
   o = runTrialInChildProcess(failing, p);
   EXPECT_EQ(o.status, TrialOutcome::Status::failed);
-  EXPECT_EQ(o.message, "error: x.c3d: truncated");
+  EXPECT_EQ(o.message, "x.c3d: truncated");
   fs::remove(p.failure_file);
   const std::string crashing = fakeKneesim(dir, "kill -SEGV $$");
   o = runTrialInChildProcess(crashing, p);
