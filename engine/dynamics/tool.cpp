@@ -78,7 +78,7 @@ IdSetup readIdSetup(const std::string& path) {
                             "time_range", "forces_to_exclude", "results_directory", "output_gen_force_file",
                             "coordinates_in_degrees", "joints_to_report_body_forces", "output_body_forces_file",
                             "joint_loads", "joint_loads_on", "joint_loads_expressed_in", "output_joint_loads_file",
-                            "ForcePlates"});
+                            "ForcePlates", "KneeLoads"});
   for (const xml::Node& c : tool.children()) s.locations[c.name()] = c.where();
   const std::string dir = fs::path(path).parent_path().string();
   s.model_file = optionalPath(tool, "model_file", dir);
@@ -122,6 +122,20 @@ IdSetup readIdSetup(const std::string& path) {
     tool.child("joint_loads_expressed_in").fail(e.what());
   }
   if (const xml::Node fp = tool.child("ForcePlates")) readForcePlates(fp, dir, s);
+  if (const xml::Node k = tool.child("KneeLoads")) {
+    xml::checkChildren(k, {"joint", "axes", "output_file"});
+    s.locations["KneeLoads"] = k.where();
+    s.knee_joint = k.childText("joint");
+    if (s.knee_joint.empty()) k.fail("missing <joint> (the knee joint, whose child is the tibial body)");
+    try {
+      s.knee_axes = parseKneeAxes(k.childText("axes", "posterior superior medial"));
+    } catch (const std::invalid_argument& e) {
+      (k.child("axes") ? k.child("axes") : k).fail(e.what());
+    }
+    std::string f = k.childText("output_file");
+    if (f.empty()) f = (s.name.empty() ? std::string("inverse_dynamics") : s.name) + "_knee_loads.sto";
+    s.output_knee_loads_file = outputPath(s.results_directory, f);
+  }
   return s;
 }
 
@@ -237,7 +251,14 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
                                 formatSignificant(loads->getEndTime(), 6) +
                                 " s) do not cover every analysed frame: their splines are extrapolated there");
   }
-  const std::vector<JointLoadRequest> joints = resolveJointLoads(setup, *model);
+  std::vector<JointLoadRequest> joints = resolveJointLoads(setup, *model);
+  const size_t n_requested = joints.size();
+  if (!setup.knee_joint.empty()) {
+    const int k = model->findJoint(setup.knee_joint);
+    if (k < 0)
+      throw InputError(setup.locate("KneeLoads"), "expected a joint of " + setup.model_file + ", got '" + setup.knee_joint + "'");
+    joints.push_back({k, LoadOnBody::Child, LoadFrame::Child});  // the last 9 columns
+  }
 
   const InverseDynamics id(model);
   const double cpu1 = cpuSeconds();
@@ -265,9 +286,17 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
                                   " mm from the centre of pressure (both feet on the plate?); all of it went to foot '" +
                                   a.foot + "'");
   }
-  if (!joints.empty()) {
-    report.joint_loads = makeJointLoadStorage(*model, joints, result);
+  if (n_requested > 0) {
+    const std::vector<JointLoadRequest> requested(joints.begin(), joints.begin() + long(n_requested));
+    TrajectoryResult shown = result;
+    shown.joint_loads = result.joint_loads.leftCols(9 * long(n_requested));
+    report.joint_loads = makeJointLoadStorage(*model, requested, shown);
     out.addContents(setup.output_joint_loads_file, io::formatStorage(report.joint_loads));
+  }
+  if (!setup.knee_joint.empty()) {
+    const Eigen::MatrixX3d F = result.joint_loads.rightCols(9).leftCols(3), M = result.joint_loads.rightCols(6).leftCols(3);
+    report.knee_loads = makeKneeLoadTable(result.time, F, M, setup.knee_axes);
+    out.addContents(setup.output_knee_loads_file, io::formatStorage(report.knee_loads));
   }
   if (!options.stage) own.commit();
   const auto paths = out.getPaths();

@@ -11,7 +11,9 @@
 // joint_loads_expressed_in (ground|parent|child), output_joint_loads_file; and <ForcePlates>, the
 // external loads straight from a C3D file (dynamics/c3d_loads.hpp): c3d_file, threshold,
 // lowpass_cutoff_frequency, marker_rotation, <Foot name=".."><body/><markers/></Foot>...,
-// output_grf_file (the GRF .mot OpenSim would read, written with its ExternalLoads .xml).
+// output_grf_file (the GRF .mot OpenSim would read, written with its ExternalLoads .xml); and
+// <KneeLoads>: joint, axes (the tibial frame's x y z, e.g. "posterior superior medial"),
+// output_file: the knee's net load in clinical terms (dynamics/knee_loads.hpp).
 // Differences on purpose:
 // - Without a time_range the analysed frames stop at the coordinate file's own first and last
 //   rows (OpenSim would also analyse the reflected padding added for filtering).
@@ -29,6 +31,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "dynamics/c3d_loads.hpp"
+#include "dynamics/knee_loads.hpp"
 #include "dynamics/trajectory.hpp"
 #include "io/storage.hpp"
 
@@ -56,6 +59,9 @@ struct IdSetup {
   std::string plates_c3d_file;        ///< <ForcePlates>: "" when the loads come from external_loads_file.
   PlateLoadOptions plates;
   std::string output_grf_file;        ///< Resolved .mot path; the .xml beside it.
+  std::string knee_joint;             ///< <KneeLoads>: "" for none.
+  KneeAxes knee_axes;
+  std::string output_knee_loads_file; ///< Resolved path.
   std::map<std::string, SourceLocation> locations;
 
   /// Location of element @p element (the tool element if it was not written).
@@ -70,6 +76,7 @@ IdSetup readIdSetup(const std::string& path);
 struct IdReport {
   io::Storage generalized_forces;  ///< As written.
   io::Storage joint_loads;         ///< As written (no columns if none were asked for).
+  io::Storage knee_loads;          ///< As written (no columns without <KneeLoads>).
   std::vector<std::string> notes;     ///< What was decided (plate assignments).
   std::vector<std::string> warnings;
   std::vector<std::string> outputs;

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 #include "dynamics/tool.hpp"
@@ -37,6 +38,7 @@ dynamics::IdSetup runTrial(const std::string& test, const std::string& trial, dy
   id.output_gen_force_file = dir + "/" + trial + "_id.sto";
   id.output_joint_loads_file = dir + "/" + trial + "_joint_loads.sto";
   id.output_grf_file = dir + "/" + trial + "_grf.mot";
+  id.output_knee_loads_file = dir + "/" + trial + "_knee_loads.sto";
   report = dynamics::runInverseDynamicsTool(id);
   return id;
 }
@@ -87,6 +89,27 @@ TEST(JwKnee24Id, WrittenGroundReactionsReadBackToTheSameAnswer) {
   ASSERT_EQ(a.data.rows(), b.data.rows());
   // The .mot keeps 8 decimals of the forces and points: the moments agree to well under 0.01 N m.
   EXPECT_LT((a.data - b.data).cwiseAbs().maxCoeff(), 1e-2);
+}
+
+// The gap diagnosis's knee-load fixtures are what the ID setups compute (KNEESIM_UPDATE_GAP_FIXTURES=1
+// rewrites them).
+TEST(JwKnee24Id, KneeLoadFixturesMatchTheIdSetups) {
+  for (const std::string trial : {"ngait_og3", "stairupf1"}) {
+    KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_" + trial + ".c3d");
+    dynamics::IdReport report;
+    const dynamics::IdSetup setup = runTrial("fixtures", trial, report);
+    const std::string fixture = test::sourcePath("tests/gap/fixtures/jw_" + trial + "_knee_loads.sto");
+    if (std::getenv("KNEESIM_UPDATE_GAP_FIXTURES")) {
+      fs::copy_file(setup.output_knee_loads_file, fixture, fs::copy_options::overwrite_existing);
+      continue;
+    }
+    const io::Storage want = io::readStorage(fixture), got = io::readStorage(setup.output_knee_loads_file);
+    ASSERT_EQ(got.labels, want.labels) << trial;
+    ASSERT_EQ(got.data.rows(), want.data.rows()) << trial;
+    for (Eigen::Index c = 0; c < want.data.cols(); ++c)
+      EXPECT_LE((got.data.col(c) - want.data.col(c)).cwiseAbs().maxCoeff(), 1e-3 * want.data.col(c).cwiseAbs().maxCoeff())
+          << trial << " " << want.labels[size_t(c)];
+  }
 }
 
 }  // namespace
