@@ -68,7 +68,7 @@ std::vector<SignalCorrelation> correlate(const Context& c, const std::vector<std
   for (const auto& t : c.trials)
     for (const auto& [k, v] : t.channels)
       if (k == "knee_flexion" || k == "knee_flexion_rate" || k == "S" || k == "dS_dt" ||
-          startsWith(k, "GRF:vertical") || startsWith(k, "EMG:"))
+          startsWith(k, "GRF:vertical") || startsWith(k, "EMG:") || startsWith(k, "knee_"))
         names.insert(k);
   std::vector<std::pair<std::string, std::vector<std::vector<double>>>> signals;
   for (const auto& nm : names) {

@@ -343,6 +343,7 @@ std::vector<BlindCase> getDefaultBlindCases() {
   v.push_back(one("ap_translation", "shift", 0.003));
   v.push_back(one("threshold", "dh", -0.0015));
   v.push_back(one("grf_load", "gain", 0.6));
+  v.push_back(one("knee_load", "flexion", 15));
   v.push_back(one("emg_cocontraction", "gain", 1200));
   v.push_back(one("adhesion_jkr", "psi", 5e4));
   BlindCase bump;

@@ -34,7 +34,7 @@ std::string workflowAreaFile(const std::string& dir, const std::string& name) {
 TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   static const std::set<std::string> known = {"knee_forces", "contact_area",   "c3d",        "kinematics",
                                               "flexion_column", "flexion_source", "events", "event_times",
-                                              "time_range",  "gon_calibration", "grf_from_knee_forces"};
+                                              "time_range",  "gon_calibration", "grf_from_knee_forces", "knee_loads"};
   for (const xml::Node& c : t.children())
     if (!known.count(c.name()))
       c.fail("unknown element <" + c.name() + "> in Trial (expected one of " + join(known, ", ") + ")");
@@ -48,6 +48,7 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   s.contact_area = xml::resolvePath(dir, t.childText("contact_area"));
   s.c3d = xml::resolvePath(dir, t.childText("c3d"));
   s.kinematics = xml::resolvePath(dir, t.childText("kinematics"));
+  s.knee_loads = xml::resolvePath(dir, t.childText("knee_loads"));
   s.flexion_column = t.childText("flexion_column", s.flexion_column);
   s.flexion_source = t.childText("flexion_source", s.flexion_source);
   s.events = t.childText("events", s.events);

@@ -220,6 +220,7 @@ GapTrial assembleTrial(const TrialSource& src) {
   requireFile(src.c3d, "c3d", "C3D file");
   requireFile(src.contact_area, "contact_area", "contact-area file");
   requireFile(src.kinematics, "kinematics", "kinematics file");
+  requireFile(src.knee_loads, "knee_loads", "knee-load file");
   GapTrial g;
   g.activity = getActivityDefinition(src.activity).name;
   g.trial.name = src.name;
@@ -292,6 +293,19 @@ GapTrial assembleTrial(const TrialSource& src) {
         throw InputError({src.contact_area, 0, lab}, "column '" + lab + "': expected finite values over " +
                                                          fmt(t.front()) + "-" + fmt(t.back()) + " s, got NaN");
     ch[lab] = std::move(v);
+  }
+  if (!src.knee_loads.empty()) {
+    const io::Storage loads = io::readStorage(src.knee_loads);
+    for (size_t c = 0; c < loads.labels.size(); ++c) {
+      const std::string& lab = loads.labels[c];
+      if (lab.rfind("knee_", 0) != 0) continue;
+      std::vector<double> v = storageColumn(loads, static_cast<int>(c), t);
+      for (double x : v)
+        if (!std::isfinite(x))
+          throw InputError({src.knee_loads, 0, lab}, "column '" + lab + "': expected finite values over " + fmt(t.front()) +
+                                                         "-" + fmt(t.back()) + " s, got NaN");
+      ch[lab] = std::move(v);
+    }
   }
   for (const auto& [k, v] : area.header)
     if (k == "threshold" || k == "threshold_m") {

@@ -81,6 +81,9 @@ struct TrialSource {
   std::string contact_area;        ///< The contact-area tool's .sto for this trial.
   std::string c3d;                 ///< Optional: force plates and EMG (and the C3D clock).
   std::string kinematics;          ///< Optional IK motion (.mot) with the flexion column.
+  /// Optional: the knee's net loads from inverse dynamics (the InverseDynamicsTool's
+  /// <KneeLoads> file); its knee_* columns become channels of the same names.
+  std::string knee_loads;
   std::string flexion_column = "knee_flexion";
   /// "auto" (the area file's knee_flexion column, else the kinematics, else GON), "area",
   /// "kinematics" or "gon".

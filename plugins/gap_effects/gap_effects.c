@@ -16,6 +16,7 @@
  *   grf_load           gain (0)                    F_base + gain * GRF:vertical
  *   emg_cocontraction  gain (0) N                  F_base + gain * EMG:cocontraction
  *   adhesion_jkr       psi (0) N/m^1.5, 0..7e4     F_base - psi (S / pi)^(3/4)                  [negative control]
+ *   knee_load          flexion, adduction (0)      F_base + flexion M_flex + adduction M_add    [knee_load.c]
  *
  * theta is the channel knee_flexion (rad), s_m = S_medial / (S_medial + S_lateral), s_l = 1 - s_m.
  * Force maps give exact derivatives; the engine differentiates rewrites numerically (tests/gap checks both).
@@ -511,9 +512,12 @@ static const kneesim_effect effects[] = {
                "pull-off tests; it should not be selected"),
 };
 
+extern const kneesim_effect kneesim_gap_effect_knee_load; /* knee_load.c */
+
 KNEESIM_PLUGIN_EXPORT int kneesim_plugin_register(const kneesim_registrar* r) {
   if (r->abi_version < 2) return -1; /* add_effect arrived with ABI version 2 */
   for (int i = 0; i < N_OF(effects); ++i)
     if (r->add_effect(r->host, &effects[i])) return 1 + i;
+  if (r->add_effect(r->host, &kneesim_gap_effect_knee_load)) return 1 + N_OF(effects);
   return 0;
 }

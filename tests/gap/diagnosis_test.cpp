@@ -144,8 +144,9 @@ TEST_F(Diagnosis, BaselineIsPreferredAndTheIsotonicFloorHolds) {
 // JW's real contact areas (the paper workflow's, the femur seated by the model: a function of the
 // flexion alone) cannot follow a force that varies from 100 to 1600 N. With only four cycles the
 // sign-flip test has no power, but the systematic gap exceeds the between-cycle repeatability band:
-// the verdict must not be "baseline". The gap follows the vertical ground reaction force of the
-// instrumented leg, and the external-load term, driven by it, takes most of the gap.
+// the verdict must not be "baseline". The gap follows the external load (the vertical ground
+// reaction force of the instrumented leg and the knee's net axial force that carries it), and the
+// external-load term, driven by it, takes most of the gap.
 TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const std::vector<GapTrial> trials = test::jwGaitAndStair();
@@ -161,8 +162,14 @@ TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
   EXPECT_TRUE(std::isnan(b.structure.p_value));  // 4 cycles: too few for the sign-flip test
   EXPECT_TRUE(b.structure.exceeds_band);
   EXPECT_GT(b.baseline_rmse_heldout, 400);
-  EXPECT_EQ(b.correlations[0].signal, "GRF:vertical");
-  EXPECT_GT(b.correlations[0].r, 0.8);
+  // The external load in either form: the ground reaction or the knee's net axial force from
+  // inverse dynamics (the channel that carries the ground reaction to the knee; 0.91 on 2026-11-24).
+  EXPECT_THAT(b.correlations[0].signal, testing::AnyOf("GRF:vertical", "knee_axial_force"));
+  for (const auto& c : b.correlations)
+    if (c.signal == "GRF:vertical" || c.signal == "knee_axial_force") {
+      std::printf("[ real     ] correlation of the gap with %s: r = %.3f\n", c.signal.c_str(), c.r);
+      EXPECT_GT(c.r, 0.8) << c.signal;
+    }
   o.max_effects = 2;
   const GapReport rep = diagnose(hertz(), catalogue, trials, o);
   const TargetDiagnosis& d = rep.targets[0];
@@ -199,9 +206,9 @@ TEST_F(Diagnosis, ARivalHeldAtTheBaselineByItsBoundIsNotConfusable) {
 // A small threshold change (-0.4 mm) on seed 1: ap_translation removes a steady 8 % of the withheld
 // error (significant) but whitens to -62 %; threshold removes as much (8 %) but varies more from
 // cycle to cycle, so its withheld reduction is not significant; it whitens to +14 %.
-//  - At the standard level its cross-fitted score is (t = 3.94 against 3.25, Bonferroni over the 13
+//  - At the standard level its cross-fitted score is (t = 3.94 against 3.29, Bonferroni over the 14
 //    screened effects): threshold is significant and the best prewhitened of the significant ones.
-//  - At alpha = 0.01 neither of its tests is (3.94 against 4.18); it still enters, as the best
+//  - At alpha = 0.01 neither of its tests is (3.94 against 4.22); it still enters, as the best
 //    prewhitened candidate not significantly worse in raw error than the gate (flexion_gain, whose
 //    score is significant) and significantly better than it in prewhitened error.
 // (Before either rule, the step selected ap_translation.)
@@ -227,11 +234,11 @@ TEST_F(Diagnosis, ACandidateEntersByItsScoreOrAsTheBestWhitenedComparableToTheGa
     EXPECT_GT(ap.one_sided_lower, 0);
     EXPECT_LT(thr.one_sided_lower, 0);
     EXPECT_NEAR(thr.score_t, 3.94, 0.01);
-    EXPECT_NEAR(thr.score_critical, 3.25, 0.01);  // Student t, 11 dof, one-sided 1 - 0.05 / 13
+    EXPECT_NEAR(thr.score_critical, 3.29, 0.01);  // Student t, 11 dof, one-sided 1 - 0.05 / 14
     EXPECT_TRUE(thr.isSignificant());
     EXPECT_GT(thr.whitened_improvement, ap.whitened_improvement);
     EXPECT_THAT(thr.decision, HasSubstr("among the significant ones"));
-    EXPECT_THAT(thr.decision, HasSubstr("cross-fitted score t = 3.94 against 3.25"));
+    EXPECT_THAT(thr.decision, HasSubstr("cross-fitted score t = 3.94 against 3.29"));
     // Its prewhitened reduction's lower bound (reported, not a criterion) lies below the reduction.
     EXPECT_LT(thr.whitened_one_sided_lower, thr.whitened_improvement);
     EXPECT_GT(std::abs(thr.whitened_one_sided_lower - thr.one_sided_lower), 0.01);  // from the prewhitened errors
@@ -244,7 +251,7 @@ TEST_F(Diagnosis, ACandidateEntersByItsScoreOrAsTheBestWhitenedComparableToTheGa
     ASSERT_EQ(d.selected, std::vector<std::string>{"threshold"});
     const CandidateFit thr = find(d, "threshold"), fg = find(d, "flexion_gain");
     EXPECT_FALSE(thr.isSignificant());
-    EXPECT_NEAR(thr.score_critical, 4.18, 0.01);
+    EXPECT_NEAR(thr.score_critical, 4.22, 0.01);
     EXPECT_TRUE(fg.isSignificant());
     EXPECT_THAT(thr.decision, HasSubstr("significantly lower in prewhitened error than flexion_gain"));
   }

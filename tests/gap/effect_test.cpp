@@ -41,6 +41,9 @@ Channels makeChannels() {
     for (int mm : {2, 3, 5, 6}) c.ch["S@" + std::to_string(mm) + "mm"].push_back(s + 0.25 * (mm - 4) * 1e-3 * std::sqrt(s));
     c.ch["GRF:vertical"].push_back(600 * std::pow(std::sin(M_PI * t / 1.2), 2));
     c.ch["EMG:cocontraction"].push_back(0.2 + 0.1 * std::cos(4 * t));
+    c.ch["knee_axial_force"].push_back(650 * std::pow(std::sin(M_PI * t / 1.2), 2) + 40);
+    c.ch["knee_flexion_moment"].push_back(30 * std::sin(2 * M_PI * t / 1.2));
+    c.ch["knee_adduction_moment"].push_back(-15 * std::pow(std::sin(M_PI * t / 1.2), 2));
   }
   return c;
 }
@@ -57,8 +60,8 @@ class Effects : public ::testing::Test {
 TEST_F(Effects, TheCatalogueIsRegistered) {
   EXPECT_EQ(registry.getEffectNames(),
             (std::vector<std::string>{"adhesion_jkr", "ap_translation", "creep", "emg_cocontraction", "exponent",
-                                      "flexion_gain", "flexion_offset", "grf_load", "ml_compartments",
-                                      "radius_flexion", "rate", "threshold", "time_delay"}));
+                                      "flexion_gain", "flexion_offset", "grf_load", "knee_load",
+                                      "ml_compartments", "radius_flexion", "rate", "threshold", "time_delay"}));
   EXPECT_THAT(registry.findOrigin("time_delay"), HasSubstr("libkneesim_gap_effects.so"));
   EXPECT_THAT(inputErrorOf([&] { Effect::fromRegistry(registry, "delay", {"g.xml", 3, "effects"}); }),
               HasSubstr("g.xml:3: effects: no effect named 'delay' (loaded: adhesion_jkr, "));
@@ -117,13 +120,15 @@ TEST_F(Effects, ClosedForms) {
   };
   const auto& s = c.ch.at("S");
   const Eigen::VectorXd fe = eval("exponent", 0.4), fj = eval("adhesion_jkr", 3e4), fo = eval("flexion_offset", 0.1),
-                        fg = eval("grf_load", 0.5), ft = eval("threshold", 0.001), fd = eval("time_delay", 0.05);
+                        fg = eval("grf_load", 0.5), ft = eval("threshold", 0.001), fd = eval("time_delay", 0.05),
+                        fk = eval("knee_load", 0.4);
   for (size_t i = 0; i < s.size(); ++i) {
     const double fh = hertzOf(s[i], k, r);
     EXPECT_NEAR(fe[i], fh * std::pow(s[i] / 2.5e-3, 0.4), 1e-9 * fh);
     EXPECT_NEAR(fj[i], fh - 3e4 * std::pow(s[i] / M_PI, 0.75), 1e-9 * fh);
     EXPECT_NEAR(fo[i], hertzOf(s[i] + c.ch.at("dS_dflexion")[i] * 0.1, k, r), 1e-9 * fh);
     EXPECT_NEAR(fg[i], fh + 0.5 * c.ch.at("GRF:vertical")[i], 1e-9 * fh);
+    EXPECT_NEAR(fk[i], fh + 0.4 * c.ch.at("knee_flexion_moment")[i], 1e-9 * fh);  // its first parameter, flexion
     // S(h) is linear in sqrt(S)-scaled steps between the channels: S(5 mm) = S@5mm exactly (a knot).
     EXPECT_NEAR(ft[i], hertzOf(c.ch.at("S@5mm")[i], k, r), 1e-9 * fh);
     // The delayed force is the baseline 50 ms earlier (6 frames at 120 Hz: a sample, so exact).

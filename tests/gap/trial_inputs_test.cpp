@@ -136,6 +136,32 @@ TEST(TrialInputs, BadInputsAreOneLineErrors) {
   s.events = "sometimes";
   EXPECT_THAT(inputErrorOf([&] { assembleTrial(s); }),
               HasSubstr("events: expected auto, plates, force, flexion or times, got 'sometimes'"));
+  // Knee loads that stop before the trial does.
+  s.events = "auto";
+  io::Storage k = io::readStorage(s.knee_loads);
+  k.data.conservativeResize(100, Eigen::NoChange);
+  io::writeStorage(dir + "/short_loads.sto", k);
+  s.knee_loads = dir + "/short_loads.sto";
+  EXPECT_THAT(inputErrorOf([&] { assembleTrial(s); }),
+              HasSubstr("short_loads.sto: knee_axial_force: column 'knee_axial_force': expected finite values over"));
+}
+
+// The knee's net loads from inverse dynamics are channels of the trial, on its frames.
+TEST(TrialInputs, KneeLoadsBecomeChannels) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/knee-forces/jw_ngait_og3_knee_forces.csv");
+  const TrialSource s = jwSource("ngait_og3", "gait", false);
+  const GapTrial g = assembleTrial(s);
+  const io::Storage k = io::readStorage(s.knee_loads);
+  const auto& axial = getChannel(g, "knee_axial_force");
+  ASSERT_EQ(int(axial.size()), g.getNumFrames());
+  // The fixture's row nearest each frame, within half a frame at 120 Hz.
+  const int col = k.findColumn("knee_axial_force");
+  for (int i = 0; i < g.getNumFrames(); i += 37) {
+    int r = 0;
+    while (r + 1 < k.getNumRows() && std::abs(k.data(r + 1, 0) - g.trial.time[i]) < std::abs(k.data(r, 0) - g.trial.time[i])) ++r;
+    EXPECT_NEAR(axial[i], k.data(r, col), 0.05 * std::abs(k.data(r, col)) + 5.0) << g.trial.time[i];
+  }
+  for (const char* c : {"knee_flexion_moment", "knee_adduction_moment", "knee_ap_force"}) EXPECT_NO_THROW(getChannel(g, c));
 }
 
 TEST(TrialInputs, AMissingInputFileIsNamedWithTheSetupElementThatNamedIt) {
