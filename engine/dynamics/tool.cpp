@@ -204,9 +204,9 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
   if (!setup.joints_to_report_body_forces.empty())
     report.warnings.push_back("joints_to_report_body_forces is not written; joint_loads gives the net joint loads");
 
-  if (!fs::exists(setup.coordinates_file))
+  if (!options.coordinates && !fs::exists(setup.coordinates_file))
     throw InputError(setup.locate("coordinates_file"), "coordinates file not found: " + setup.coordinates_file);
-  const io::Storage coords = io::readStorage(setup.coordinates_file);
+  const io::Storage coords = options.coordinates ? *options.coordinates : io::readStorage(setup.coordinates_file);
   CoordinateSmoothingOptions so;
   so.cutoff_hz = setup.cutoff_hz;
   so.in_degrees = setup.coordinates_in_degrees >= 0 ? setup.coordinates_in_degrees == 1 : fileSaysDegrees(coords);
@@ -242,7 +242,7 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
     // rounding error before the data's first row.
     const double a = times.front(), b = times.back(), eps = 1e-6;
     if (b < loads->getStartTime() - eps || a > loads->getEndTime() + eps)
-      throw InputError(setup.locate("external_loads_file"),
+      throw InputError(setup.locate(setup.plates_c3d_file.empty() ? "external_loads_file" : "ForcePlates"),
                        "expected force data overlapping the analysed times " + formatSignificant(a, 6) + " to " +
                            formatSignificant(b, 6) + " s, got " + formatSignificant(loads->getStartTime(), 6) + " to " +
                            formatSignificant(loads->getEndTime(), 6) + " s in " + loads->getSpec().datafile);

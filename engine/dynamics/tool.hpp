@@ -89,6 +89,10 @@ struct IdReport {
 struct IdRunOptions {
   /// If set, outputs are staged here instead of committed (see ik::IkRunOptions::stage).
   AtomicFileSet* stage = nullptr;
+  /// If set, the coordinates (as a coordinates_file would hold them) instead of reading
+  /// coordinates_file, which then only names them in messages (a workflow's IK motion, staged
+  /// but not yet written).
+  const io::Storage* coordinates = nullptr;
 };
 
 /// Runs the setup and writes its outputs, all after every frame is computed. Throws InputError

@@ -2,6 +2,7 @@
 // its bad-input messages.
 #include "dynamics/tool.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -157,6 +158,52 @@ TEST(InverseDynamicsTool, BadInputIsOneLine) {
     replaceInFile(dir + "/subject01_Setup_InverseDynamics.xml", "<forces_to_exclude>", "<force_to_exclude/><forces_to_exclude>");
     EXPECT_NE(errorOfCase(dir).find("force_to_exclude"), std::string::npos);
   }
+}
+
+// <KneeLoads> and <ForcePlates> of a setup: each bad input is one line naming the element.
+TEST(InverseDynamicsTool, KneeLoadsAndForcePlatesBadInputIsOneLine) {
+  const std::string dir = copyCase("id_bad_knee_plates");
+  const std::string setup = dir + "/subject01_Setup_InverseDynamics.xml";
+  const std::string good = readFileText(setup);
+  const auto withTool = [&](const std::string& from, const std::string& to) {
+    std::ofstream(setup) << good;
+    replaceInFile(setup, from, to);
+    return errorOfCase(dir);
+  };
+  const std::string excl = "<forces_to_exclude>";
+  EXPECT_THAT(withTool(excl, "<KneeLoads><joint>knee_x</joint></KneeLoads>" + excl),
+              testing::HasSubstr("KneeLoads: expected a joint of " + dir + "/subject01.osim, got 'knee_x'"));
+  EXPECT_THAT(withTool(excl, "<KneeLoads><axes>posterior superior medial</axes></KneeLoads>" + excl),
+              testing::HasSubstr("KneeLoads: missing <joint>"));
+  EXPECT_THAT(withTool(excl, "<KneeLoads><joint>knee_r</joint><axes>up superior medial</axes></KneeLoads>" + excl),
+              testing::HasSubstr("axes: expected anterior, posterior, superior, inferior, medial or lateral, got 'up'"));
+  EXPECT_THAT(withTool(excl, "<KneeLoads><joint>knee_r</joint><axes>anterior posterior medial</axes></KneeLoads>" + excl),
+              testing::HasSubstr("axes: expected one anteroposterior, one superoinferior and one mediolateral axis"));
+  EXPECT_THAT(withTool(excl, "<KneeLoads><joint>knee_r</joint><side>right</side></KneeLoads>" + excl),
+              testing::HasSubstr("side"));
+  // Plates and an ExternalLoads file at once; plates without a C3D file, without feet, with a
+  // missing or truncated file, with a threshold that is not a force.
+  const std::string plates = "<ForcePlates><c3d_file>walk.c3d</c3d_file><Foot name=\"r\"><body>calcn_r</body>"
+                             "<markers>RHeel RToe</markers></Foot></ForcePlates>";
+  EXPECT_THAT(withTool(excl, plates + excl), testing::HasSubstr("expected either <external_loads_file> or <ForcePlates>, got both"));
+  const std::string ext = "<external_loads_file>subject01_walk1_grf.xml</external_loads_file>";
+  EXPECT_THAT(withTool(ext, "<ForcePlates><Foot name=\"r\"><markers>RHeel</markers></Foot></ForcePlates>"),
+              testing::HasSubstr("ForcePlates: missing <c3d_file>"));
+  EXPECT_THAT(withTool(ext, "<ForcePlates><c3d_file>walk.c3d</c3d_file></ForcePlates>"),
+              testing::HasSubstr("expected at least one <Foot>, got none"));
+  EXPECT_THAT(withTool(ext, "<ForcePlates><c3d_file>walk.c3d</c3d_file><threshold>-5</threshold><Foot name=\"r\">"
+                            "<markers>RHeel</markers></Foot></ForcePlates>"),
+              testing::HasSubstr("threshold: expected a threshold > 0 N, got -5"));
+  EXPECT_THAT(withTool(ext, plates), testing::HasSubstr("ForcePlates: C3D file not found: " + dir + "/walk.c3d"));
+  // JW's gait C3D cut short: a truncated binary is one line too, and no output is written.
+  const std::string jw = test::dataPath("kgc4-jw/markers/jw_ngait_og3.c3d");
+  ASSERT_TRUE(fs::exists(jw));
+  std::string bytes = readFileText(jw);
+  bytes.resize(bytes.size() / 3);
+  std::ofstream(dir + "/walk.c3d", std::ios::binary) << bytes;
+  const std::string msg = withTool(ext, plates);
+  EXPECT_THAT(msg, testing::HasSubstr(dir + "/walk.c3d"));
+  EXPECT_FALSE(fs::exists(dir + "/Results/subject01_InverseDynamics.sto")) << msg;
 }
 
 TEST(InverseDynamicsTool, WritesJointLoadsAndNamesForcesItLeavesOut) {
