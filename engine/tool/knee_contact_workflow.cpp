@@ -46,7 +46,7 @@ double readPositive(const xml::Node& n, const std::string& what) {
 
 WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
   xml::checkChildren(t, {"ik_setup_file", "motion_file", "goniometer", "knee_forces_file", "c3d_file", "heel_marker",
-                    "gait_events", "window", "time_range", "fit"});
+                    "gait_events", "window", "time_range", "fit", "id_setup_file"});
   WorkflowTrialSpec s;
   s.where = t.where();
   s.name = t.nameAttr();
@@ -94,6 +94,11 @@ WorkflowTrialSpec readTrial(const xml::Node& t, const std::string& dir) {
   if (sources != 1)
     t.fail("expected exactly one kinematics source (ik_setup_file, motion_file or goniometer), got " +
            std::to_string(sources));
+  if (xml::Node n = t.child("id_setup_file")) {
+    if (s.source == WorkflowTrialSpec::Source::goniometer)
+      n.fail("expected a trial with ik_setup_file or motion_file (inverse dynamics needs every coordinate), got a goniometer");
+    s.id_setup_file = xml::resolvePath(dir, n.text());
+  }
   s.knee_forces_file = xml::resolvePath(dir, t.requireChild("knee_forces_file").text());
   if (s.knee_forces_file.empty()) t.fail("expected a knee_forces_file");
   s.c3d_file = xml::resolvePath(dir, t.childText("c3d_file"));
@@ -742,6 +747,10 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
                           io::formatStorage(st.motion));
     }
     r.seconds_ik = secondsSince(t0);
+    if (!spec.id_setup_file.empty())
+      r.knee_loads = runTrialKneeLoads(spec.id_setup_file, st.motion,
+                                       spec.source == WorkflowTrialSpec::Source::ik ? st.motion_label : spec.motion_file,
+                                       spec.name, trialDir(spec.name), spec.where, outputs, r.notes);
 
     // ---- forces on the C3D's clock, gait events
     io::C3dFile c3d;
@@ -847,6 +856,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     tr.measured_force = r.forces.total;
     const identify::TimeWindow w = resolveWindow(spec, r.cycle);
     if (spec.window != "trial") tr.windows.push_back(w);
+    if (!spec.id_setup_file.empty()) compareKneeLoads(r.knee_loads, r.time, r.forces, w.begin, w.end);
   }
 
   // ---- identification on the training trials
@@ -975,6 +985,10 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       f.labels.push_back("predicted_medial");
       f.labels.push_back("predicted_lateral");
     }
+    for (const auto& c : r.knee_loads.at_frames) f.labels.push_back(c.first);
+    if (!r.knee_loads.at_frames.empty())
+      f.header.emplace_back("knee_loads", "the knee's net loads from inverse dynamics (" + r.knee_loads.id_setup_file +
+                                              "; N and N m, no muscles), at these frames");
     const size_t n = r.time.size();
     f.data.resize(Eigen::Index(n), Eigen::Index(f.labels.size()));
     const auto in = [&](double t) {
@@ -1004,6 +1018,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
         row.push_back(r.predicted_medial[i]);
         row.push_back(r.predicted_lateral[i]);
       }
+      for (const auto& c : r.knee_loads.at_frames) row.push_back(c.second[i]);
       for (size_t c = 0; c < row.size(); ++c) f.data(Eigen::Index(i), Eigen::Index(c)) = row[c];
     }
     outputs.addContents((fs::path(dir) / (r.name + "_forces.sto")).string(), io::formatStorage(f));
@@ -1132,6 +1147,20 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
           p.vlines.push_back({100.0, "heel strike"});
           p.xmin = std::min(0.0, x.front());
           p.xmax = std::max(100.0, x.back());
+        }
+        plots.push_back(p);
+      }
+      // The knee's net loads (inverse dynamics) beside the measured forces.
+      for (const TrialState& st : states) {
+        const WorkflowTrialResult& r = st.result;
+        if (r.knee_loads.at_frames.empty()) continue;
+        const bool rc = r.cycle.isComplete();
+        Plot p = makeKneeLoadPlot(r.knee_loads, r.forces, plotAxis(r, rc), rc ? "gait cycle (%)" : "time (s)", r.name);
+        p.file = pdir + "/fig10_knee_loads_" + r.name + ".png";
+        if (rc) {
+          p.vlines.push_back({0.0, "heel strike"});
+          if (std::isfinite(r.cycle.toe_off)) p.vlines.push_back({r.cycle.getToeOffPercent(), "toe-off"});
+          p.vlines.push_back({100.0, "heel strike"});
         }
         plots.push_back(p);
       }
@@ -1319,6 +1348,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
                                      {"flexion_deg", {{"offset_deg", g.offset_deg}, {"gain_per_goniometer_deg", g.gain}}},
                                      {"source", g.source}, {"r", num(g.r)}, {"rms_deg", num(g.rms_deg)}, {"frames", g.frames}};
     }
+    if (!r.knee_loads.at_frames.empty()) j["knee_loads"] = toJson(r.knee_loads, setup.timings);
     if (setup.timings) j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
     trials.push_back(j);
   }
@@ -1341,6 +1371,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     if (!fs::exists(file)) throw InputError({setup.setup_file, 0, "gap_setup_file"}, "gap setup file not found: " + file);
     gap::GapSetup gs = gap::readGapSetup(file);
     gap::setWorkflowResults(gs, setup.results_directory);
+    // The knee's net loads this run computed become the trials' knee_* channels (knee_load effect).
+    for (gap::TrialSource& t : gs.trials)
+      for (const WorkflowTrialResult& r : report.trials)
+        if (t.knee_loads.empty() && r.name == t.name && !r.knee_loads.at_frames.empty())
+          t.knee_loads = (fs::path(trialDir(r.name)) / (r.name + "_knee_loads.sto")).string();
     gs.results_directory = (fs::path(setup.results_directory) / "gap" / gs.name).string();
     if (!setup.plots) gs.report.plots = false;
     progress("gap " + gs.name, 0, 1);
@@ -1368,6 +1403,11 @@ void printWorkflowSummary(const WorkflowReport& r, std::ostream& os) {
     if (std::isfinite(m.rmse_bw)) os << " (" << std::setprecision(3) << m.rmse_bw << " BW)";
     os << ", R^2 " << std::setprecision(3) << m.r2 << "; whole trial RMSE " << std::setprecision(1) << a.rmse << " N\n";
     for (const std::string& n : t.notes) os << "      " << n << "\n";
+    for (const KneeLoadAgreement& a : t.knee_loads.agreement)
+      if (a.measured == "total" && (a.load == "knee_axial_force" || a.load == "knee_flexion_moment"))
+        os << "      net " << a.load.substr(5) << " vs measured total: r " << std::setprecision(3) << a.r_trial
+           << " (window " << a.r_window << "), best lag " << std::setprecision(0) << 1e3 * a.lag << " ms (r "
+           << std::setprecision(3) << a.r_at_lag << ")\n";
     for (const PhaseError& e : t.phases)
       os << "      " << std::left << std::setw(20) << e.name << std::right << " RMSE " << std::setw(7)
          << std::setprecision(1) << e.metrics.rmse << " N, bias " << std::setw(7) << e.metrics.bias

@@ -32,6 +32,7 @@
 #include "io/knee_forces.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/run.hpp"
+#include "tool/workflow_knee_loads.hpp"
 
 namespace kneesim::tool {
 
@@ -45,6 +46,9 @@ struct WorkflowTrialSpec {
   std::string ik_setup_file;    ///< Source::ik: an InverseKinematicsTool setup (resolved).
   std::string motion_file;      ///< Source::motion: a .mot/.sto with the model's coordinates (resolved).
   std::string knee_forces_file;  ///< eKnee CSV (resolved).
+  /// An InverseDynamicsTool setup with <KneeLoads> (resolved; "" none), run on the trial's motion:
+  /// the knee's net loads beside the measured forces (tool/workflow_knee_loads.hpp).
+  std::string id_setup_file;
   /// C3D of the trial (resolved; "" none): aligns the force rows with its frames and gives the
   /// gait events. Defaults to the IK setup's marker file when that is a .c3d.
   std::string c3d_file;
@@ -155,6 +159,7 @@ struct WorkflowTrialResult {
   double window_agreement = std::numeric_limits<double>::quiet_NaN();  ///< Fraction of window frames.
   double cycle_agreement = std::numeric_limits<double>::quiet_NaN();   ///< Fraction of cycle frames.
   double ik_mean_rms = std::numeric_limits<double>::quiet_NaN();      ///< m, when IK ran.
+  TrialKneeLoads knee_loads;  ///< When the trial has an id_setup_file (else an empty table).
   /// The goniometer calibration used (Source::goniometer) and whether the trial's GON was in volts.
   io::GoniometerCalibration goniometer;
   bool goniometer_in_volts = false;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <iomanip>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -374,6 +375,11 @@ TEST(KneeContactWorkflow, BadInputsAreOneLineErrors) {
   expectError(dir, replace(good, "<body_mass>", "<bodymass>1</bodymass><body_mass>"), "unknown element <bodymass>");
   expectError(dir, replace(good, "<motion_file>test.mot</motion_file>", "<motion_file>test.mot</motion_file><goniometer/>"),
               "exactly one kinematics source");
+  // Inverse dynamics needs every coordinate; and a trial's ID setup that is not there.
+  expectError(dir, replace(good, "<goniometer><calibrate_on>", "<id_setup_file>id.xml</id_setup_file><goniometer><calibrate_on>"),
+              "id_setup_file: expected a trial with ik_setup_file or motion_file (inverse dynamics needs every coordinate), got a goniometer");
+  expectError(dir, replace(good, "<motion_file>test.mot</motion_file>", "<motion_file>test.mot</motion_file><id_setup_file>id.xml</id_setup_file>"),
+              "inverse dynamics setup file not found: " + dir + "/id.xml");
 }
 
 // ---- JW: the paper's workflow (models/jw-knee24/paper_workflow.xml)
@@ -632,6 +638,40 @@ void checkThePapersClaimOfAGoodFitOverMostOfTheCycle(const WorkflowReport& r) {
   EXPECT_EQ(lr.agreement, 0.0);
 }
 
+// The knee's net loads (inverse dynamics on each trial with a C3D file, no muscles) beside the
+// measured forces: the net axial force follows the eKnee total (0.905 in gait, 0.957 on the stairs
+// on 2026-11-24, as tests/models/jw_knee24_id_test.cpp finds from the ID setups alone) at about one
+// body weight where the measured force reaches 2-2.5; the files the gap diagnosis reads are the
+// fixtures' values.
+void checkKneeLoads(const WorkflowReport& r) {
+  const std::map<std::string, double> want_r = {{"ngait_og3", 0.905}, {"stairupf1", 0.957}};
+  for (const auto& [name, want] : want_r) {
+    const WorkflowTrialResult& t = findTrial(r, name);
+    ASSERT_EQ(t.knee_loads.at_frames.size(), 6u) << name;
+    double r_axial = NAN, lag = NAN, peak = 0;
+    for (const KneeLoadAgreement& a : t.knee_loads.agreement)
+      if (a.load == "knee_axial_force" && a.measured == "total") r_axial = a.r_trial, lag = a.lag;
+    for (double v : t.knee_loads.at_frames[0].second) peak = std::max(peak, v);
+    std::printf("[ jw wf    ] %s: net axial force peak %.0f N, r with the measured total %.3f, best lag %.0f ms\n",
+                name.c_str(), peak, r_axial, 1e3 * lag);
+    EXPECT_NEAR(r_axial, want, 0.01) << name;
+    EXPECT_NEAR(peak, 66.7 * 9.81, 0.2 * 66.7 * 9.81) << name;
+    EXPECT_LE(std::abs(lag), 0.1) << name;
+    const io::Storage fixture = io::readStorage(test::sourcePath("tests/gap/fixtures/jw_" + name + "_knee_loads.sto"));
+    const io::Storage written = io::readStorage(
+        (fs::path(r.summary_file).parent_path() / name / (name + "_knee_loads.sto")).string());
+    ASSERT_EQ(written.labels, fixture.labels) << name;
+    ASSERT_EQ(written.data.rows(), fixture.data.rows()) << name;
+    // The fixtures come from IK's written .mot (8 decimals of degrees), the workflow passes IK's
+    // motion in memory: twice differentiated, the rounding moves the small columns by a few 0.01.
+    for (Eigen::Index c = 0; c < fixture.data.cols(); ++c)
+      EXPECT_LE((written.data.col(c) - fixture.data.col(c)).cwiseAbs().maxCoeff(),
+                std::max(0.05, 1e-3 * fixture.data.col(c).cwiseAbs().maxCoeff()))
+          << name << " " << fixture.labels[size_t(c)];
+  }
+  EXPECT_TRUE(findTrial(r, "chairrise1").knee_loads.at_frames.empty());  // no C3D, no inverse dynamics
+}
+
 // The whole JW workflow once (about 20 s), then the three groups of figures above.
 TEST(KneeContactWorkflow, JwPaperWorkflow) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_ngait_og3.c3d");
@@ -656,6 +696,10 @@ TEST(KneeContactWorkflow, JwPaperWorkflow) {
   {
     SCOPED_TRACE("the gap diagnosis's fixtures");
     checkGapFixtures(fs::path(r.summary_file).parent_path().string());
+  }
+  {
+    SCOPED_TRACE("the knee's net loads");
+    checkKneeLoads(r);
   }
 }
 
