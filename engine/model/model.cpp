@@ -110,6 +110,7 @@ void Model::finalize() {
   indexNames(joints, joint_index_, "joint", source_file);
   indexNames(coordinates, coordinate_index_, "coordinate", source_file);
   indexNames(markers, marker_index_, "marker", source_file);
+  indexNames(muscles, muscle_index_, "muscle", source_file);
   parent_joint_.assign(bodies.size(), -1);
   for (size_t j = 0; j < joints.size(); ++j) parent_joint_[joints[j].child_body] = int(j);
 }
@@ -125,6 +126,7 @@ int Model::findBody(const std::string& n) const { return lookup(body_index_, n);
 int Model::findJoint(const std::string& n) const { return lookup(joint_index_, n); }
 int Model::findCoordinate(const std::string& n) const { return lookup(coordinate_index_, n); }
 int Model::findMarker(const std::string& n) const { return lookup(marker_index_, n); }
+int Model::findMuscle(const std::string& n) const { return lookup(muscle_index_, n); }
 int Model::findParentJoint(int body) const {
   return (body >= 0 && body < int(parent_joint_.size())) ? parent_joint_[body] : -1;
 }

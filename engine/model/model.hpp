@@ -1,6 +1,6 @@
 #pragma once
 // The immutable description of a musculoskeletal model: bodies, joints, coordinates,
-// couplers and markers, as read from an OpenSim .osim or a URDF file.
+// couplers, markers and force elements, as read from an OpenSim .osim or a URDF file.
 //
 // Frame notation (Drake): X_PF is the pose of frame F measured in frame P; p_BM is the
 // position of point M from B's origin expressed in B. All lengths are in metres, angles in
@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "model/forces.hpp"
 #include "model/function.hpp"
 
 namespace kneesim::model {
@@ -114,6 +115,9 @@ class Model {
   std::vector<Coordinate> coordinates;
   std::vector<CoordinateCoupler> couplers;
   std::vector<Marker> markers;
+  std::vector<WrapObject> wrap_objects;
+  std::vector<Muscle> muscles;
+  std::vector<CoordinateActuator> actuators;
   std::vector<IgnoredComponent> ignored;
   /// Problems a reader tolerated (a mesh file not found, unusual length units, ...), one line each.
   std::vector<std::string> warnings;
@@ -128,11 +132,12 @@ class Model {
   int findJoint(const std::string& n) const;
   int findCoordinate(const std::string& n) const;
   int findMarker(const std::string& n) const;
+  int findMuscle(const std::string& n) const;
   /// Joint whose child is @p body, or -1 for ground.
   int findParentJoint(int body) const;
 
  private:
-  std::unordered_map<std::string, int> body_index_, joint_index_, coordinate_index_, marker_index_;
+  std::unordered_map<std::string, int> body_index_, joint_index_, coordinate_index_, marker_index_, muscle_index_;
   std::vector<int> parent_joint_;
 };
 

@@ -17,7 +17,7 @@ void OsimReader::readBodies(const Node& model_el, bool v4) {
   body_index_["ground"] = 0;
   if (Node g = model_el.child("Ground")) {
     body_nodes_[0] = g;
-    readWrapObjects(g);
+    readWrapObjects(g, 0);
   }
   Node set = model_el.requireChild("BodySet");
   bool ground_seen = v4;
@@ -50,7 +50,7 @@ void OsimReader::readBodies(const Node& model_el, bool v4) {
       body.mass_center = b.childVec3("mass_center", Vec3::Zero());
       body.inertia = readInertia(b);
     }
-    readWrapObjects(b);
+    readWrapObjects(b, index);
     if (!v4) {
       readMeshes3(b, index);
       Node jw = b.child("Joint");
@@ -83,11 +83,6 @@ Mat3 OsimReader::readInertia(const Node& b) {
   }
   if (!I.allFinite()) b.fail("expected finite inertia values");
   return I;
-}
-
-void OsimReader::readWrapObjects(const Node& b) {
-  for (const Node& w : b.child("WrapObjectSet").child("objects").children())
-    m_->ignored.push_back({w.name(), w.nameAttr()});
 }
 
 void OsimReader::addMesh(int body, const Node& where, const std::string& file, const Vec3& scale, const Pose& X_BG) {

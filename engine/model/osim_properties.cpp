@@ -15,19 +15,19 @@ const char* const kFunctionTypes =
     "Constant, LinearFunction, PolynomialFunction, SimmSpline, NaturalCubicSpline, PiecewiseLinearFunction or "
     "MultiplierFunction";
 
-bool isFunctionTag(const std::string& t) {
-  static const std::set<std::string> tags = {"Constant",           "LinearFunction",          "PolynomialFunction",
-                                             "SimmSpline",         "NaturalCubicSpline",      "natCubicSpline",
-                                             "PiecewiseLinearFunction", "MultiplierFunction"};
-  return tags.count(t) > 0;
-}
-
 std::vector<double> requireDoubles(const Node& owner, const char* tag) {
   Node c = owner.requireChild(tag);
   return c.toDoubles();
 }
 
 }  // namespace
+
+bool isFunctionTag(const std::string& t) {
+  static const std::set<std::string> tags = {"Constant",           "LinearFunction",          "PolynomialFunction",
+                                             "SimmSpline",         "NaturalCubicSpline",      "natCubicSpline",
+                                             "PiecewiseLinearFunction", "MultiplierFunction"};
+  return tags.count(t) > 0;
+}
 
 std::string listNames(const std::vector<std::string>& names, size_t max_names) {
   std::string out;

@@ -59,6 +59,7 @@ std::shared_ptr<Model> OsimReader::read() {
   checkTree();
   readConstraints(model_el);
   readMarkers(model_el, v4);
+  readForces(model_el, v4);
   readIgnoredSets(model_el);
 
   try {
@@ -70,7 +71,8 @@ std::shared_ptr<Model> OsimReader::read() {
 }
 
 void OsimReader::readIgnoredSets(const Node& model_el) {
-  static const std::set<std::string> handled = {"BodySet", "JointSet", "ConstraintSet", "MarkerSet"};
+  static const std::set<std::string> handled = {"BodySet", "JointSet", "ConstraintSet", "MarkerSet",
+                                                "ForceSet"};
   for (const Node& s : model_el.children()) {
     const std::string tag = s.name();
     if (!endsWith(tag, "Set") || handled.count(tag)) continue;

@@ -7,7 +7,8 @@
 // what OpenSim itself does with every model file; a <length_units> other than metres is kept
 // as a warning on the model rather than converted.
 //
-// Components kneesim does not simulate (muscles and other forces, wrap objects, contact
+// Wrap objects, muscles of the types kneesim evaluates and coordinate actuators are read too
+// (model/osim_forces.hpp). Components kneesim does not simulate (other forces, contact
 // geometry, controllers, probes, non-coupler constraints, disabled couplers) are listed in
 // Model::ignored. Unknown joint or function types are errors.
 

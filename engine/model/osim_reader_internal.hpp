@@ -8,6 +8,7 @@
 //   osim_joints.cpp       joints and their coordinates
 //   osim_constraints.cpp  constraints
 //   osim_markers.cpp      markers
+//   osim_forces.cpp       wrap objects, muscles with their paths, coordinate actuators
 
 #include <initializer_list>
 #include <map>
@@ -39,6 +40,9 @@ Node findObjectProperty(const Node& owner, const char* property, std::initialize
 /// An OpenSim function element (Constant, LinearFunction, SimmSpline, ...). Throws InputError
 /// at @p el for an unknown type or bad knots.
 FunctionPtr parseFunction(const Node& el);
+
+/// Whether @p tag names one of the function types parseFunction() reads.
+bool isFunctionTag(const std::string& tag);
 
 /// OpenSim's "rX rY rZ tx ty tz" transform (body-fixed XYZ angles, then a translation).
 Pose parseSixTransform(const Node& n);
@@ -99,7 +103,7 @@ class OsimReader {
   // osim_bodies.cpp
   void readBodies(const Node& model_el, bool v4);
   Mat3 readInertia(const Node& b);
-  void readWrapObjects(const Node& b);
+  void readWrapObjects(const Node& b, int body);
   void addMesh(int body, const Node& where, const std::string& file, const Vec3& scale, const Pose& X_BG);
   void readMeshes3(const Node& b, int body);
   void readMeshes4(const Node& frame, const std::string& owner_path, int body, const Pose& X_BF);
@@ -131,6 +135,9 @@ class OsimReader {
 
   // osim_markers.cpp
   void readMarkers(const Node& model_el, bool v4);
+
+  // osim_forces.cpp
+  void readForces(const Node& model_el, bool v4);
 
   const xml::Document& doc_;
   std::string label_;

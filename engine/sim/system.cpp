@@ -333,6 +333,7 @@ struct Workspace::Impl {
   // Inverse dynamics buffers, sized once at creation.
   SimTK::Vector mobility_forces, udot, residual;
   SimTK::Vector_<SimTK::SpatialVec> body_forces;
+  std::vector<Eigen::Matrix<double, 6, 1>> subtree;  // per body: force on its subtree
 };
 
 Workspace::Workspace(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -532,6 +533,7 @@ std::unique_ptr<Workspace> System::createWorkspace() const {
   impl->udot.resize(impl_->nu);
   impl->residual.resize(impl_->nu);
   impl->body_forces.resize(impl_->matter.getNumBodies());
+  impl->subtree.assign(model_->bodies.size(), Eigen::Matrix<double, 6, 1>::Zero());
   impl_->system.realize(impl->state, SimTK::Stage::Position);
   return std::unique_ptr<Workspace>(new Workspace(std::move(impl)));
 }
@@ -609,6 +611,37 @@ void System::calcStationJacobian(Workspace& ws, const std::vector<int>& bodies,
       for (int ii = 0; ii < nb; ++ii) J.col(d.n_coords[k + jj]) += w.NInv(ii, jj) * w.block.col(ii);
     }
     k = e;
+  }
+}
+
+void System::calcGeneralizedForcesFromBodyForces(Workspace& ws, const SpatialColumns& F,
+                                                 Eigen::Ref<Eigen::VectorXd> tau) const {
+  // tau_c = H_c . (the force on the subtree of the body coordinate c moves, as a torque about
+  // that body's origin and a force), with H_c Simbody's hinge-matrix column (see
+  // calcStationJacobian). Subtree sums keep torques about the ground origin so they add without
+  // shifting. Simbody's multiplyBySystemJacobianTranspose does the same but allocates.
+  Workspace::Impl& w = *ws.impl_;
+  const Impl& d = *impl_;
+  const model::Model& m = *model_;
+  KNEESIM_CHECK(F.cols() == int(m.bodies.size()) && tau.size() == getNumCoordinates(),
+                "body force and generalised force sizes do not match the model");
+  if (w.subtree.size() != m.bodies.size()) w.subtree.resize(m.bodies.size());
+  for (size_t b = 1; b < m.bodies.size(); ++b) {
+    const SimTK::Vec3& p = d.matter.getMobilizedBody(d.mobod[b]).getBodyOriginLocation(w.state);
+    w.p_GB[b] = Eigen::Vector3d(p[0], p[1], p[2]);
+    w.subtree[b].head<3>() = F.col(b).head<3>() + w.p_GB[b].cross(Eigen::Vector3d(F.col(b).tail<3>()));
+    w.subtree[b].tail<3>() = F.col(b).tail<3>();
+  }
+  for (auto j = m.joints.rbegin(); j != m.joints.rend(); ++j)  // children before parents
+    if (j->parent_body > 0) w.subtree[j->parent_body] += w.subtree[j->child_body];
+  for (size_t c = 0; c < m.coordinates.size(); ++c) {
+    const model::Coordinate& co = m.coordinates[c];
+    const int a = m.joints[co.joint].child_body;
+    const SimTK::SpatialVec& H =
+        d.matter.getMobilizedBody(d.mobod[a]).getHCol(w.state, SimTK::MobilizerUIndex(co.index_in_joint));
+    const Eigen::Vector3d f = w.subtree[a].tail<3>();
+    const Eigen::Vector3d M = w.subtree[a].head<3>() - w.p_GB[a].cross(f);
+    tau[int(c)] = H[0][0] * M[0] + H[0][1] * M[1] + H[0][2] * M[2] + H[1][0] * f[0] + H[1][1] * f[1] + H[1][2] * f[2];
   }
 }
 

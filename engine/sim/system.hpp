@@ -99,6 +99,13 @@ class System {
   void calcStationJacobian(Workspace& ws, const std::vector<int>& bodies,
                            const std::vector<Eigen::Vector3d>& stations, Eigen::Ref<Eigen::MatrixXd> J) const;
 
+  /// Generalised forces (one per model coordinate, in the coordinates' speeds u) equivalent to
+  /// the body forces @p F (see SpatialColumns: column b the moment about body b's origin and the
+  /// force, in ground): tau = J^T F. After realizePosition(); @p tau has one entry per
+  /// coordinate. Allocates nothing once the workspace has been used once.
+  void calcGeneralizedForcesFromBodyForces(Workspace& ws, const SpatialColumns& F,
+                                           Eigen::Ref<Eigen::VectorXd> tau) const;
+
   /// Position-level errors of the couplers, scale * f(independents) - dependent, one per coupler
   /// (Simbody's qErr; computed from the model's function for couplers disabled in @p ws).
   Eigen::VectorXd calcCouplerErrors(const Workspace& ws) const;

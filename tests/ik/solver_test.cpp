@@ -156,13 +156,12 @@ long countAllocationsWhileTracking(const std::shared_ptr<const model::Model>& mo
   Solver solver(sys, std::move(tasks), {}, options);
   Eigen::VectorXd q = sys.getDefaultCoordinates();
   solver.trackFrame(*ws, frames[0], {}, q);  // first use: Simbody may set up lazily
-  g_allocations = 0;
-  g_count_allocations = true;
   int iterations = 0;
-  for (size_t f = 1; f < frames.size(); ++f) iterations += solver.trackFrame(*ws, frames[f], {}, q).iterations;
-  g_count_allocations = false;
+  const long allocations = test::countAllocations([&] {
+    for (size_t f = 1; f < frames.size(); ++f) iterations += solver.trackFrame(*ws, frames[f], {}, q).iterations;
+  });
   EXPECT_GT(iterations, int(frames.size()) - 1);  // the loop did real work
-  return g_allocations;
+  return allocations;
 }
 
 TEST(Solver, TrackingFramesDoesNotAllocate) {

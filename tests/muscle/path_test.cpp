@@ -1,0 +1,247 @@
+// Muscle paths against OpenSim's stored lengths, closed-form wrap geometry and finite
+// differences of the length; and the hot loop's allocations.
+#include "muscle/path.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "io/storage.hpp"
+#include "model/osim_reader.hpp"
+#include "support/allocation_counter.hpp"
+#include "support/chain_model.hpp"
+#include "support/test_data.hpp"
+
+using namespace kneesim;
+using kneesim::test::dataPath;
+
+namespace {
+
+/// Coordinates of row @p r of an OpenSim 4 states table (columns /jointset/<joint>/<coord>/value).
+Eigen::VectorXd coordinatesOf(const model::Model& m, const io::Storage& st, int r) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(int(m.coordinates.size()));
+  for (size_t c = 0; c < m.coordinates.size(); ++c) {
+    const model::Coordinate& co = m.coordinates[c];
+    q[int(c)] = co.default_value;
+    for (size_t k = 1; k < st.labels.size(); ++k) {
+      const std::string& l = st.labels[k];
+      const std::string tail = "/" + co.name + "/value";
+      if (l == co.name || (l.size() > tail.size() && l.compare(l.size() - tail.size(), tail.size(), tail) == 0)) {
+        double v = st.data(r, int(k));
+        if (st.in_degrees && co.motion_type == model::MotionType::Rotational) v *= M_PI / 180.0;
+        q[int(c)] = v;
+      }
+    }
+  }
+  return q;
+}
+
+}  // namespace
+
+// OpenSim's testGeometryPathWrapping: the 18 muscles of gait10dof18musc (path points,
+// conditional points on the hip, moving quadriceps insertions on the tibia) along a gait cycle,
+// against the lengths OpenSim 4.4 stored, within OpenSim's own tolerance (1e-6 m).
+TEST(PathSet, Gait1018MuscleLengthsMatchOpenSim) {
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/wrapping/walk_gait1018_subject01.osim");
+  const auto model = model::readOsim(dataPath("opensim-dynamics-tests/wrapping/walk_gait1018_subject01.osim"));
+  ASSERT_EQ(model->muscles.size(), 18u);
+  const io::Storage motion =
+      io::readStorage(dataPath("opensim-dynamics-tests/wrapping/walk_gait1018_state_reference.mot"));
+  const io::Storage ref = io::readStorage(
+      dataPath("opensim-dynamics-tests/wrapping/std_testGeometryPathWrapping_walk_gait1018_muscle_lengths.sto"));
+  ASSERT_EQ(motion.getNumRows(), ref.getNumRows());
+  sim::System system(model);
+  auto sws = system.createWorkspace();
+  muscle::PathSet paths(system);
+  auto ws = paths.createWorkspace();
+  std::vector<double> max_err(model->muscles.size(), 0.0), sum_sq(model->muscles.size(), 0.0);
+  for (int r = 0; r < motion.getNumRows(); ++r) {
+    ASSERT_NEAR(motion.data(r, 0), ref.data(r, 0), 1e-6);
+    const Eigen::VectorXd q = coordinatesOf(*model, motion, r);
+    system.realizePosition(*sws, q);
+    paths.realize(*sws, q, *ws);
+    for (size_t i = 0; i < model->muscles.size(); ++i) {
+      const int col = ref.findColumn("/forceset/" + model->muscles[i].name + "|length");
+      ASSERT_GE(col, 0) << model->muscles[i].name;
+      const double err = std::abs(paths.getLength(*ws, int(i)) - ref.data(r, col));
+      max_err[i] = std::max(max_err[i], err);
+      sum_sq[i] += err * err;
+    }
+  }
+  for (size_t i = 0; i < model->muscles.size(); ++i) {
+    EXPECT_LT(max_err[i], 1e-6) << model->muscles[i].name;  // OpenSim's own tolerance
+    RecordProperty(model->muscles[i].name + "_max_error_m", std::to_string(max_err[i]));
+    std::printf("%-14s max %.3g m  rms %.3g m\n", model->muscles[i].name.c_str(), max_err[i],
+                std::sqrt(sum_sq[i] / motion.getNumRows()));
+  }
+}
+
+namespace {
+
+/// Whether the generalised-force method gives -dL/dq (to the 0.1 degree tangency OpenSim's
+/// cylinder iterates to, about 1e-5 m) for path @p mu: OpenSim's
+/// ellipsoid paths follow a plane section rather than a geodesic, and with several wrap
+/// objects its passes stop once the length changes by less than 0.5 mm, so in those cases the
+/// tangent points are not quite where the length is stationary and the two differ slightly.
+bool isExactPath(const model::Model& m, const model::Muscle& mu) {
+  for (const model::PathWrap& w : mu.path.wraps)
+    if (m.wrap_objects[w.wrap_object].shape == model::WrapShape::Ellipsoid) return false;
+  return mu.path.wraps.size() <= 1;
+}
+
+/// Generalised forces of each path against central differences of its length, -dL/dq, over
+/// every coordinate moved alone at @p q. Returns the largest difference over the paths for
+/// which isExactPath() is @p exact.
+double maxMomentArmError(const sim::System& system, const Eigen::VectorXd& q, double h, std::string& worst,
+                         bool exact = true) {
+  const model::Model& m = system.getModel();
+  auto sws = system.createWorkspace();
+  muscle::PathSet paths(system);
+  auto ws = paths.createWorkspace();
+  const int n = int(m.coordinates.size()), np = paths.getNumPaths();
+  Eigen::MatrixXd G(n, np), L_plus(n, np), L_minus(n, np);
+  system.realizePosition(*sws, q);
+  paths.realize(*sws, q, *ws);
+  for (int i = 0; i < np; ++i) paths.calcGeneralizedForces(*sws, *ws, i, G.col(i));
+  for (int c = 0; c < n; ++c)
+    for (int s : {1, -1}) {
+      Eigen::VectorXd qs = q;
+      qs[c] += s * h;
+      system.realizePosition(*sws, qs);
+      paths.realize(*sws, qs, *ws);
+      for (int i = 0; i < np; ++i) (s > 0 ? L_plus : L_minus)(c, i) = paths.getLength(*ws, i);
+    }
+  double worst_err = 0;
+  for (int c = 0; c < n; ++c)
+    for (int i = 0; i < np; ++i) {
+      if (isExactPath(m, m.muscles[i]) != exact) continue;
+      const double fd = -(L_plus(c, i) - L_minus(c, i)) / (2 * h);
+      const double err = std::abs(G(c, i) - fd);
+      if (err > worst_err) {
+        worst_err = err;
+        worst = m.muscles[i].name + " about " + m.coordinates[c].name + ": " + std::to_string(G(c, i)) + " vs " +
+                std::to_string(fd);
+      }
+    }
+  return worst_err;
+}
+
+}  // namespace
+
+// Hand-derived: a path from the ground origin to B's origin in the test chain, where
+// p_B = (0.5 cos q0, 1 + 0.5 sin q0, -q1): L^2 = 1.25 + sin q0 + q1^2, so
+// -dL/dq0 = -cos q0 / (2 L) and -dL/dq1 = -q1 / L.
+TEST(PathSet, ChainMomentArmsMatchHandDerivation) {
+  auto m = test::makeChain(false, 40000);
+  model::Muscle mu;
+  mu.name = "m";
+  mu.type = "Thelen2003Muscle";
+  model::PathPoint a, b;
+  a.body = 0;
+  b.body = 2;
+  mu.path.points = {a, b};
+  m->muscles.push_back(mu);
+  m->finalize();
+  sim::System system(m);
+  auto sws = system.createWorkspace();
+  muscle::PathSet paths(system);
+  auto ws = paths.createWorkspace();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(3), g(3);
+  q << 0.7, 0.2, 0.3;
+  system.realizePosition(*sws, q);
+  paths.realize(*sws, q, *ws);
+  paths.calcGeneralizedForces(*sws, *ws, 0, g);
+  const double L = std::sqrt(1.25 + std::sin(0.7) + 0.04);
+  EXPECT_NEAR(paths.getLength(*ws, 0), L, 1e-14);
+  EXPECT_NEAR(g[0], -std::cos(0.7) / (2 * L), 1e-14);
+  EXPECT_NEAR(g[1], -0.2 / L, 1e-14);
+  EXPECT_NEAR(g[2], 0.0, 1e-14);
+}
+
+// Moving quadriceps insertions and conditional points: the generalised-force moment arms equal
+// the length's derivative (central differences, h = 1e-6).
+TEST(PathSet, Gait1018MomentArmsMatchFiniteDifferences) {
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/wrapping/walk_gait1018_subject01.osim");
+  const auto model = model::readOsim(dataPath("opensim-dynamics-tests/wrapping/walk_gait1018_subject01.osim"));
+  const io::Storage motion =
+      io::readStorage(dataPath("opensim-dynamics-tests/wrapping/walk_gait1018_state_reference.mot"));
+  sim::System system(model);
+  for (int r : {0, 40, 75, 120}) {
+    std::string worst;
+    EXPECT_LT(maxMomentArmError(system, coordinatesOf(*model, motion, r), 1e-6, worst), 1e-8) << worst;
+  }
+}
+
+// arm26: cylinders with and without quadrants (exact), and ellipsoids (hybrid, quadrants,
+// ranges, a muscle over three objects), whose moment arms differ from the length's derivative
+// by up to 3e-4 m (see isExactPath(); OpenSim's MomentArmSolver reports the same numbers).
+TEST(PathSet, Arm26MomentArmsMatchFiniteDifferences) {
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/so/arm26.osim");
+  const auto model = model::readOsim(dataPath("opensim-dynamics-tests/so/arm26.osim"));
+  ASSERT_EQ(model->muscles.size(), 6u);
+  const io::Storage motion = io::readStorage(dataPath("opensim-dynamics-tests/so/arm26_InverseKinematics.mot"));
+  sim::System system(model);
+  for (int r : {0, 30, 60, 90, 120}) {
+    const Eigen::VectorXd q = coordinatesOf(*model, motion, r);
+    std::string worst;
+    EXPECT_LT(maxMomentArmError(system, q, 1e-5, worst), 2e-5) << "row " << r << ": " << worst;
+    EXPECT_LT(maxMomentArmError(system, q, 1e-5, worst, false), 3e-4) << "row " << r << ": " << worst;
+  }
+}
+
+// JW's UF model: 54 Schutte muscles, 40 path wraps over 29 ellipsoids and 7 cylinders.
+TEST(PathSet, JwPathsWrapAndTheirMomentArmsMatchFiniteDifferences) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/model/jw_all_body_scaled.osim");
+  const auto model = model::readOsim(dataPath("kgc4-jw/model/jw_all_body_scaled.osim"));
+  ASSERT_EQ(model->muscles.size(), 54u);
+  size_t wraps = 0;
+  for (const model::Muscle& mu : model->muscles) wraps += mu.path.wraps.size();
+  EXPECT_EQ(wraps, 40u);
+  sim::System system(model);
+  auto sws = system.createWorkspace();
+  muscle::PathSet paths(system);
+  auto ws = paths.createWorkspace();
+  Eigen::VectorXd q = system.getDefaultCoordinates();
+  for (double flexion : {0.0, 0.6, 1.2}) {  // JW's knee flexes negatively
+    q[model->findCoordinate("hip_flexion")] = 0.3 * flexion;
+    q[model->findCoordinate("knee_flexion")] = -flexion;
+    q[model->findCoordinate("ankle_angle")] = 0.2 * flexion;
+    system.realizePosition(*sws, q);
+    paths.realize(*sws, q, *ws);
+    int wrapped = 0;
+    for (int i = 0; i < paths.getNumPaths(); ++i) {
+      EXPECT_TRUE(paths.getLength(*ws, i) > 0.01 && paths.getLength(*ws, i) < 1.0) << model->muscles[i].name;
+      for (const muscle::CurrentPoint& p : paths.getCurrentPath(*ws, i)) wrapped += p.point < 0;
+    }
+    EXPECT_GT(wrapped, 10) << "tangent points at knee flexion " << flexion;
+    std::string worst;
+    EXPECT_LT(maxMomentArmError(system, q, 1e-5, worst), 2e-5) << "knee flexion " << flexion << ": " << worst;
+    const double inexact = maxMomentArmError(system, q, 1e-5, worst, false);
+    std::printf("knee flexion %.1f: ellipsoid/multi-wrap paths differ from -dL/dq by up to %.3g m (%s)\n", flexion,
+                inexact, worst.c_str());
+  }
+}
+
+// The hot loop allocates nothing: realising every path (wrapping included) and its generalised
+// forces, frame after frame.
+TEST(PathSet, RealizeAndGeneralizedForcesDoNotAllocate) {
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/so/arm26.osim");
+  const auto model = model::readOsim(dataPath("opensim-dynamics-tests/so/arm26.osim"));
+  const io::Storage motion = io::readStorage(dataPath("opensim-dynamics-tests/so/arm26_InverseKinematics.mot"));
+  sim::System system(model);
+  auto sws = system.createWorkspace();
+  muscle::PathSet paths(system);
+  auto ws = paths.createWorkspace();
+  std::vector<Eigen::VectorXd> qs;
+  for (int r = 0; r < motion.getNumRows(); ++r) qs.push_back(coordinatesOf(*model, motion, r));
+  Eigen::VectorXd g(model->coordinates.size());
+  auto run = [&] {
+    for (const Eigen::VectorXd& q : qs) {
+      system.realizePosition(*sws, q);
+      paths.realize(*sws, q, *ws);
+      for (int i = 0; i < paths.getNumPaths(); ++i) paths.calcGeneralizedForces(*sws, *ws, i, g);
+    }
+  };
+  run();  // first use sizes Simbody's caches
+  EXPECT_EQ(test::countAllocations(run), 0);
+}
