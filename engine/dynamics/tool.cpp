@@ -161,7 +161,13 @@ std::vector<std::string> forcesNotExcluded(const model::Model& m, const std::vec
   for (const std::string& e : exclude) ex.insert(toLower(e));
   if (ex.count("all")) return {};
   std::vector<std::string> out;
-  for (const model::IgnoredComponent& c : m.ignored) {
+  // Muscles and coordinate actuators the model keeps (for static optimisation) count as well.
+  std::vector<model::IgnoredComponent> forces = m.ignored;
+  for (const model::Muscle& mu : m.muscles)
+    if (mu.enabled) forces.push_back({mu.type, mu.name});
+  for (const model::CoordinateActuator& a : m.actuators)
+    if (a.enabled) forces.push_back({"CoordinateActuator", a.name});
+  for (const model::IgnoredComponent& c : forces) {
     if (!isForceType(c.type)) continue;
     const bool muscle = endsWith(c.type, "Muscle");
     const bool actuator = muscle || endsWith(c.type, "Actuator");

@@ -99,7 +99,11 @@ class ForceReader {
   PathPoint readPathPoint(const Node& p, const std::string& owner_path) {
     PathPoint pt;
     pt.name = p.nameAttr();
-    const std::string type = p.name();
+    // OpenSim 1.x names (MusclePoint, MuscleViaPoint, MovingMusclePoint) read as their 2.x successors.
+    std::string type = p.name();
+    if (type == "MusclePoint") type = "PathPoint";
+    if (type == "MuscleViaPoint") type = "ConditionalPathPoint";
+    if (type == "MovingMusclePoint") type = "MovingPathPoint";
     auto [body_node, body_ref] = findReference(p, "body", "parent_frame");
     if (!body_node) p.fail("expected the body of the path point (<body> or <socket_parent_frame>), got none");
     pt.body = requireBody(body_node, body_ref, owner_path + "/" + pt.name);
@@ -151,18 +155,21 @@ class ForceReader {
   }
 
   GeometryPath readPath(const Node& muscle, const std::string& owner_path) {
-    Node gp = muscle.child("GeometryPath");
+    // OpenSim 1.x files keep the points and wraps in the muscle (MusclePointSet, MuscleWrapSet).
+    const bool v1 = !muscle.child("GeometryPath") && muscle.child("MusclePointSet");
+    Node gp = v1 ? muscle : muscle.child("GeometryPath");
     if (!gp) muscle.fail("expected a <GeometryPath>, got none");
     GeometryPath path;
-    const std::string path_owner = owner_path + "/" + (gp.nameAttr().empty() ? "path" : gp.nameAttr());
-    Node set = gp.child("PathPointSet");
+    const std::string path_owner = owner_path + "/" + (v1 || gp.nameAttr().empty() ? "path" : gp.nameAttr());
+    Node set = gp.child(v1 ? "MusclePointSet" : "PathPointSet");
     for (const Node& p : set.child("objects").children()) path.points.push_back(readPathPoint(p, path_owner));
     int fixed = 0;
     for (const PathPoint& p : path.points) fixed += p.type != PathPointType::Conditional;
     if (fixed < 2)
       (set ? set : gp).fail("expected at least two path points that are always active, got " + std::to_string(fixed));
-    for (const Node& w : gp.child("PathWrapSet").child("objects").children()) {
-      if (w.name() != "PathWrap") w.fail("expected <PathWrap>, got <" + w.name() + ">");
+    for (const Node& w : gp.child(v1 ? "MuscleWrapSet" : "PathWrapSet").child("objects").children()) {
+      if (w.name() != (v1 ? "MuscleWrap" : "PathWrap"))
+        w.fail(std::string("expected <") + (v1 ? "MuscleWrap" : "PathWrap") + ">, got <" + w.name() + ">");
       PathWrap pw;
       Node on = w.requireChild("wrap_object");
       for (size_t i = 0; i < m_.wrap_objects.size() && pw.wrap_object < 0; ++i)
@@ -209,7 +216,8 @@ class ForceReader {
           continue;
         }
       if (!kids.empty()) {
-        if (tag != "VisibleObject" && tag != "Appearance" && tag != "GeometryPath")
+        if (tag != "VisibleObject" && tag != "Appearance" && tag != "GeometryPath" && tag != "MusclePointSet" &&
+            tag != "MuscleWrapSet")
           collectParameters(c, prefix + tag + ".", mu);
         continue;
       }

@@ -245,3 +245,33 @@ TEST(PathSet, RealizeAndGeneralizedForcesDoNotAllocate) {
   run();  // first use sizes Simbody's caches
   EXPECT_EQ(test::countAllocations(run), 0);
 }
+
+TEST(PathSet, OpenSim1MusclePointSetsGiveTheSamePathsAsGeometryPaths) {
+  // arm26 as OpenSim 1.9 wrote it (MusclePointSet, MuscleWrapSet) and as OpenSim 2.3 wrote it
+  // (GeometryPath): the same lengths at any pose.
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/id/arm26.osim");
+  KNEESIM_REQUIRE_DATA("opensim-dynamics-tests/so/arm26.osim");
+  const auto old_model = model::readOsim(dataPath("opensim-dynamics-tests/id/arm26.osim"));
+  const auto new_model = model::readOsim(dataPath("opensim-dynamics-tests/so/arm26.osim"));
+  ASSERT_EQ(old_model->muscles.size(), 6u);
+  ASSERT_EQ(new_model->muscles.size(), 6u);
+  const sim::System old_sys(old_model), new_sys(new_model);
+  const muscle::PathSet old_paths(old_sys), new_paths(new_sys);
+  auto old_sws = old_sys.createWorkspace();
+  auto new_sws = new_sys.createWorkspace();
+  auto old_ws = old_paths.createWorkspace();
+  auto new_ws = new_paths.createWorkspace();
+  for (double elbow : {0.1, 1.0, 2.0}) {
+    Eigen::VectorXd q(2);
+    q << 0.3, elbow;
+    old_sys.realizePosition(*old_sws, q);
+    new_sys.realizePosition(*new_sws, q);
+    old_paths.realize(*old_sws, q, *old_ws);
+    new_paths.realize(*new_sws, q, *new_ws);
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_EQ(old_model->muscles[i].path.wraps.size(), new_model->muscles[i].path.wraps.size());
+      // 1e-7: the two files round some point coordinates differently (1e-8 m).
+      EXPECT_NEAR(old_paths.getLength(*old_ws, i), new_paths.getLength(*new_ws, i), 1e-7) << old_model->muscles[i].name;
+    }
+  }
+}
