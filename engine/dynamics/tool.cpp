@@ -21,13 +21,20 @@ SourceLocation IdSetup::locate(const std::string& element) const {
   return tool != locations.end() ? tool->second : SourceLocation{setup_file, 0, element};
 }
 
-namespace {
-
 std::string optionalPath(const xml::Node& tool, const char* tag, const std::string& dir) {
   const std::string v = tool.childText(tag);
   if (v.empty() || v == "Unassigned") return "";
   return xml::resolvePath(dir, v);
 }
+
+bool fileSaysDegrees(const io::Storage& s) {
+  if (s.in_degrees) return true;
+  for (const auto& [k, v] : s.header)
+    if (equalsIgnoreCase(k, "Angles") && startsWith(toLower(v), "are in degrees")) return true;
+  return false;
+}
+
+namespace {
 
 /// results_directory/name, with ".sto" added when the name has no .sto or .mot extension.
 std::string outputPath(const std::string& results_dir, std::string name) {
@@ -190,13 +197,6 @@ std::vector<JointLoadRequest> resolveJointLoads(const IdSetup& setup, const mode
     out.push_back({j, setup.joint_loads_on, setup.joint_loads_frame});
   }
   return out;
-}
-
-bool fileSaysDegrees(const io::Storage& s) {
-  if (s.in_degrees) return true;
-  for (const auto& [k, v] : s.header)
-    if (equalsIgnoreCase(k, "Angles") && startsWith(toLower(v), "are in degrees")) return true;
-  return false;
 }
 
 }  // namespace

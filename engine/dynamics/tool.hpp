@@ -30,6 +30,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/xml.hpp"
 #include "dynamics/c3d_loads.hpp"
 #include "dynamics/knee_loads.hpp"
 #include "dynamics/trajectory.hpp"
@@ -67,6 +68,13 @@ struct IdSetup {
   /// Location of element @p element (the tool element if it was not written).
   SourceLocation locate(const std::string& element) const;
 };
+
+/// The path element @p tag of a setup names, resolved against @p dir; "" when empty or "Unassigned".
+std::string optionalPath(const xml::Node& tool, const char* tag, const std::string& dir);
+
+/// Whether a coordinate file's angles are in degrees (inDegrees=yes, or OpenSim 2's "Angles are in
+/// degrees." header line).
+bool fileSaysDegrees(const io::Storage& s);
 
 /// Reads an InverseDynamicsTool setup (<OpenSimDocument><InverseDynamicsTool> or bare). Throws
 /// InputError (file:line: element: ...) for a missing file, unknown element or bad value.

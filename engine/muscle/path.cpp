@@ -236,27 +236,58 @@ void PathSet::addLoads(const PathWorkspace& ws, int i, double tension, sim::Spat
   }
 }
 
-void calcCouplingMatrix(const model::Model& model, const Eigen::VectorXd& q, Eigen::Ref<Eigen::MatrixXd> C) {
-  const int n = int(model.coordinates.size());
-  KNEESIM_CHECK(C.rows() == n && C.cols() == n && q.size() == n, "coupling matrix size does not match the model");
-  C.setIdentity();
-  for (const model::CoordinateCoupler& cc : model.couplers) C.col(cc.dependent).setZero();
-  // Each pass expresses dependent coordinates through their independents' columns; chains of
-  // couplers settle in at most one pass per coupler.
+namespace {
+
+/// Calls @p fn(coupler, x) for every coupler, x its independents' values, once per coupler per
+/// pass: chains of couplers settle in at most one pass per coupler.
+template <class Fn>
+void sweepCouplers(const model::Model& model, const Eigen::VectorXd& q, Fn&& fn) {
   double x[8];
   for (size_t pass = 0; pass < model.couplers.size(); ++pass) {
     for (const model::CoordinateCoupler& cc : model.couplers) {
       const int na = int(cc.independents.size());
       KNEESIM_CHECK(na <= 8, "coupler with more than 8 independent coordinates");
       for (int k = 0; k < na; ++k) x[k] = q[cc.independents[k]];
-      C.row(cc.dependent).setZero();
-      for (int k = 0; k < na; ++k) {
-        const int comp = k;
-        const double df = cc.scale_factor * cc.function->calcDerivative(x, &comp, 1);
-        C.row(cc.dependent) += df * C.row(cc.independents[k]);
-      }
+      fn(cc, x);
     }
   }
+}
+
+}  // namespace
+
+void calcCouplingMatrix(const model::Model& model, const Eigen::VectorXd& q, Eigen::Ref<Eigen::MatrixXd> C) {
+  const int n = int(model.coordinates.size());
+  KNEESIM_CHECK(C.rows() == n && C.cols() == n && q.size() == n, "coupling matrix size does not match the model");
+  C.setIdentity();
+  for (const model::CoordinateCoupler& cc : model.couplers) C.col(cc.dependent).setZero();
+  // Each pass expresses dependent coordinates through their independents' columns.
+  sweepCouplers(model, q, [&](const model::CoordinateCoupler& cc, const double* x) {
+    C.row(cc.dependent).setZero();
+    for (int k = 0; k < int(cc.independents.size()); ++k) {
+      const int comp = k;
+      const double df = cc.scale_factor * cc.function->calcDerivative(x, &comp, 1);
+      C.row(cc.dependent) += df * C.row(cc.independents[k]);
+    }
+  });
+}
+
+void calcCouplingAcceleration(const model::Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                              Eigen::Ref<Eigen::VectorXd> d) {
+  KNEESIM_CHECK(d.size() == q.size() && qdot.size() == q.size(), "coupling acceleration size does not match the model");
+  d.setZero();
+  sweepCouplers(model, q, [&](const model::CoordinateCoupler& cc, const double* x) {
+    const int na = int(cc.independents.size());
+    double a = 0.0;
+    for (int i = 0; i < na; ++i) {
+      const int ci = i;
+      a += cc.function->calcDerivative(x, &ci, 1) * d[cc.independents[i]];
+      for (int j = 0; j < na; ++j) {
+        const int cij[2] = {i, j};
+        a += cc.function->calcDerivative(x, cij, 2) * qdot[cc.independents[i]] * qdot[cc.independents[j]];
+      }
+    }
+    d[cc.dependent] = cc.scale_factor * a;
+  });
 }
 
 }  // namespace kneesim::muscle

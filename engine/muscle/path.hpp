@@ -100,4 +100,10 @@ class PathSet {
 /// @p C must be n x n (n coordinates); allocates nothing.
 void calcCouplingMatrix(const model::Model& model, const Eigen::VectorXd& q, Eigen::Ref<Eigen::MatrixXd> C);
 
+/// The accelerations of the coupled coordinates when every other coordinate's acceleration is
+/// zero, at coordinates @p q and rates @p qdot (the couplers' curvature, sum f_ij qdot_i qdot_j):
+/// with C from calcCouplingMatrix(), qddot = C qddot_free + d. Other entries of @p d are zero.
+void calcCouplingAcceleration(const model::Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                              Eigen::Ref<Eigen::VectorXd> d);
+
 }  // namespace kneesim::muscle

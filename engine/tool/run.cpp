@@ -7,6 +7,7 @@
 #include "gap/tool.hpp"
 #include "ik/marker_placer.hpp"
 #include "ik/tool.hpp"
+#include "muscle/analyze_tool.hpp"
 #include "tool/batch_trial.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/knee_contact_workflow.hpp"
@@ -34,6 +35,11 @@ void runIdTool(const std::string& setup_path, const RunOptions& options) {
   if (options.out) dynamics::printIdSummary(report, *options.out);
 }
 
+void runAnalyzeTool(const std::string& setup_path, const RunOptions& options) {
+  const muscle::AnalyzeReport report = muscle::runAnalyzeTool(muscle::readAnalyzeSetup(setup_path));
+  if (options.out) muscle::printAnalyzeSummary(report, *options.out);
+}
+
 void runContactAreaTool(const std::string& setup_path, const RunOptions& options) {
   const ContactAreaSetup setup = readContactAreaSetup(setup_path);
   const ContactAreaReport report = runContactArea(setup, {options.progress});
@@ -55,6 +61,7 @@ std::vector<ToolEntry> makeTools() {
                    },
                    runIkTool});
   tools.push_back({"id", "InverseDynamicsTool", nullptr, runIdTool});
+  tools.push_back({"analyze", "AnalyzeTool", nullptr, runAnalyzeTool});
   tools.push_back({"knee-model", "KneeModelTool", nullptr, runKneeModelTool});
   tools.push_back({"marker-placer", "MarkerPlacer", nullptr, runMarkerPlacerTool});
   tools.push_back({"contact-area", "ContactAreaTool", nullptr, runContactAreaTool});

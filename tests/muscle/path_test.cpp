@@ -275,3 +275,29 @@ TEST(PathSet, OpenSim1MusclePointSetsGiveTheSamePathsAsGeometryPaths) {
     }
   }
 }
+
+TEST(Couplers, AccelerationOfAChainOfCouplersIsTheHandDerivedCurvature) {
+  // q1 free; q2 = f(q1) = 0.5 q1^2 + 0.2 q1; q3 = 2 g(q2), g(x) = x^2 - x. With q1'' = 0:
+  // q2'' = f'' q1'^2 = q1'^2; q3'' = 2 (g' q2'' + g'' q2'^2), q2' = f' q1'.
+  model::Model m;
+  m.coordinates.resize(3);
+  model::CoordinateCoupler a, b;
+  a.dependent = 1;
+  a.independents = {0};
+  a.function = std::make_shared<model::PolynomialFunction>(std::vector<double>{0.5, 0.2, 0.0});
+  b.dependent = 2;
+  b.independents = {1};
+  b.function = std::make_shared<model::PolynomialFunction>(std::vector<double>{1.0, -1.0, 0.0});
+  b.scale_factor = 2.0;
+  m.couplers = {b, a};  // the chain out of order: the passes must still settle it
+  const double q1 = 0.7, u1 = 1.3;
+  const double q2 = 0.5 * q1 * q1 + 0.2 * q1, u2 = (q1 + 0.2) * u1;
+  Eigen::VectorXd q(3), u(3), d(3);
+  q << q1, q2, 2 * (q2 * q2 - q2);
+  u << u1, u2, 2 * (2 * q2 - 1) * u2;
+  muscle::calcCouplingAcceleration(m, q, u, d);
+  const double a2 = u1 * u1;
+  EXPECT_NEAR(d[0], 0.0, 1e-15);
+  EXPECT_NEAR(d[1], a2, 1e-12);
+  EXPECT_NEAR(d[2], 2 * ((2 * q2 - 1) * a2 + 2 * u2 * u2), 1e-12);
+}
