@@ -352,6 +352,10 @@ GapTrial assembleTrial(const TrialSource& src) {
   } else {
     throw InputError(where, who + ": flexion source: expected auto, area, kinematics or gon, got '" + fsrc + "'");
   }
+  // Time since the recording's first frame: a drift over the recording, whichever cycles a fit sees.
+  std::vector<double> since(n);
+  for (int i = 0; i < n; ++i) since[i] = t[i] - t.front();
+  ch["trial_time"] = std::move(since);
   const std::vector<double> flex_smooth = lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate));
   ch["knee_flexion_rate"] = derivative(t, flex_smooth);
   for (const std::string side : {"", "_medial", "_lateral"}) {
@@ -375,7 +379,10 @@ GapTrial assembleTrial(const TrialSource& src) {
   // ---- force plates and EMG
   if (have_c3d) {
     const double arate = c3d.analog.rate;
-    std::vector<double> right(c3d.analog.time.size(), 0.0), left(right.size(), 0.0);
+    // Per foot: vertical force and the horizontal components along the lab's x and y axes.
+    const size_t na = c3d.analog.time.size();
+    std::vector<double> right(na, 0.0), left(na, 0.0), right_x(na, 0.0), right_y(na, 0.0), left_x(na, 0.0),
+        left_y(na, 0.0);
     bool any_right = false;
     for (int p = 0; p < static_cast<int>(c3d.plates.size()); ++p) {
       const io::PlateWrench w = io::calcPlateWrench(c3d, p);
@@ -403,7 +410,13 @@ GapTrial assembleTrial(const TrialSource& src) {
         if (!std::isfinite(x)) x = 0.0;
       ch["GRF:plate" + std::to_string(p + 1)] = f_frames;
       std::vector<double>& dst = is_right ? right : left;
-      for (size_t i = 0; i < fz.size(); ++i) dst[i] += fz[i];
+      std::vector<double>& dst_x = is_right ? right_x : left_x;
+      std::vector<double>& dst_y = is_right ? right_y : left_y;
+      for (size_t i = 0; i < fz.size(); ++i) {
+        dst[i] += fz[i];
+        // Horizontal force only while the foot loads the plate (an unloaded plate's offsets are noise).
+        if (fz[i] > 0 && w.force[i].allFinite()) dst_x[i] += w.force[i].x(), dst_y[i] += w.force[i].y();
+      }
       any_right = any_right || is_right;
       g.notes.push_back("force plate " + std::to_string(p + 1) + " loaded " + fmt(tmin) + "-" + fmt(tmax) + " s: " +
                         (is_right ? "right (instrumented) foot" : "left foot") +
@@ -412,7 +425,12 @@ GapTrial assembleTrial(const TrialSource& src) {
     if (any_right) {
       ch["GRF:vertical"] = interpolate(c3d.analog.time, lowPass(right, arate, 30.0), t, half);
       ch["GRF:vertical_left"] = interpolate(c3d.analog.time, lowPass(left, arate, 30.0), t, half);
-      for (auto* v : {&ch["GRF:vertical"], &ch["GRF:vertical_left"]})
+      ch["GRF:x"] = interpolate(c3d.analog.time, lowPass(right_x, arate, 30.0), t, half);
+      ch["GRF:y"] = interpolate(c3d.analog.time, lowPass(right_y, arate, 30.0), t, half);
+      ch["GRF:x_left"] = interpolate(c3d.analog.time, lowPass(left_x, arate, 30.0), t, half);
+      ch["GRF:y_left"] = interpolate(c3d.analog.time, lowPass(left_y, arate, 30.0), t, half);
+      for (auto* v : {&ch["GRF:vertical"], &ch["GRF:vertical_left"], &ch["GRF:x"], &ch["GRF:y"], &ch["GRF:x_left"],
+                      &ch["GRF:y_left"]})
         for (double& x : *v)
           if (!std::isfinite(x)) x = 0.0;
     }

@@ -18,30 +18,17 @@
  *   adhesion_jkr       psi (0) N/m^1.5, 0..7e4     F_base - psi (S / pi)^(3/4)                  [negative control]
  *   knee_load          flexion, adduction (0)      F_base + flexion M_flex + adduction M_add    [knee_load.c]
  *
+ * and, in motion_load_effects.c (issue 17): hysteresis (flexing vs extending), load_flexion (GRF through a
+ * flexion-dependent lever), grf_left and grf_shear (the other foot's vertical GRF, the instrumented foot's
+ * horizontal components), trial_drift (a slow drift over a recording).
  * theta is the channel knee_flexion (rad), s_m = S_medial / (S_medial + S_lateral), s_l = 1 - s_m.
  * Force maps give exact derivatives; the engine differentiates rewrites numerically (tests/gap checks both).
  */
 #include <math.h>
-#include <stdio.h>
-#include <string.h>
 
-#include "plugin/kneesim_plugin.h"
+#include "effect_common.h"
 
 static const double kPi = 3.14159265358979323846;
-
-static const double* find_channel(const kneesim_inputs* in, const char* name) {
-  for (int c = 0; c < in->n_channels; ++c)
-    if (strcmp(in->names[c], name) == 0) return in->values[c];
-  return NULL;
-}
-
-/* Looks up a channel the effect listed; the engine checks them, this only guards against misuse. */
-#define NEED(var, name)                                                        \
-  const double* var = find_channel(in, name);                                  \
-  if (!var) {                                                                  \
-    snprintf(err, (size_t)err_len, "input channel '%s' is missing", name);     \
-    return 1;                                                                  \
-  }
 
 /* The factor array is written into force first (force doubles as scratch), then applied in place. */
 static void apply_factor_in_place(int n, const double* base, int n_tangents, const double* tin, double* force,
@@ -407,7 +394,7 @@ static int grf_map(const double* p, const kneesim_inputs* in, const double* base
     force[i] = base[i] + p[0] * g[i];
     if (dforce) dforce[i] = g[i];
   }
-  if (nt > 0) memcpy(tout, tin, sizeof(double) * (size_t)nt * (size_t)n);
+  pass_tangents(n, nt, tin, tout);
   return 0;
 }
 
@@ -423,7 +410,7 @@ static int emg_map(const double* p, const kneesim_inputs* in, const double* base
     force[i] = base[i] + p[0] * c[i];
     if (dforce) dforce[i] = c[i];
   }
-  if (nt > 0) memcpy(tout, tin, sizeof(double) * (size_t)nt * (size_t)n);
+  pass_tangents(n, nt, tin, tout);
   return 0;
 }
 
@@ -448,14 +435,11 @@ static int jkr_map(const double* p, const kneesim_inputs* in, const double* base
     force[i] = base[i] - p[0] * a15;
     if (dforce) dforce[i] = -a15;
   }
-  if (nt > 0) memcpy(tout, tin, sizeof(double) * (size_t)nt * (size_t)n);
+  pass_tangents(n, nt, tin, tout);
   return 0;
 }
 
 /* ---------------------------------------------------------------- tables */
-#define N_OF(a) ((int)(sizeof(a) / sizeof((a)[0])))
-#define MAP_EFFECT(nm, desc, params, inputs, fn, phys, sep) \
-  {sizeof(kneesim_effect), nm, desc, N_OF(params), params, N_OF(inputs), inputs, 0, NULL, NULL, fn, phys, sep}
 #define REWRITE_EFFECT(nm, desc, params, inputs, fn, phys, sep) \
   {sizeof(kneesim_effect), nm, desc, N_OF(params), params, N_OF(inputs), inputs, 1, s_only, fn, NULL, phys, sep}
 
@@ -519,5 +503,6 @@ KNEESIM_PLUGIN_EXPORT int kneesim_plugin_register(const kneesim_registrar* r) {
   for (int i = 0; i < N_OF(effects); ++i)
     if (r->add_effect(r->host, &effects[i])) return 1 + i;
   if (r->add_effect(r->host, &kneesim_gap_effect_knee_load)) return 1 + N_OF(effects);
-  return 0;
+  const int rc = kneesim_gap_register_motion_load_effects(r);
+  return rc ? N_OF(effects) + 1 + rc : 0;
 }

@@ -39,7 +39,12 @@ Channels makeChannels() {
     c.ch["dS_dflexion"].push_back(-4e-4 * (1 + 0.5 * std::cos(3 * t)));
     c.ch["dS_dap"].push_back(0.02 * (1 + 0.3 * std::sin(2 * t)));
     for (int mm : {2, 3, 5, 6}) c.ch["S@" + std::to_string(mm) + "mm"].push_back(s + 0.25 * (mm - 4) * 1e-3 * std::sqrt(s));
+    c.ch["knee_flexion_rate"].push_back(0.9 * M_PI / 1.2 * std::sin(2 * M_PI * t / 1.2));  // d theta / dt
     c.ch["GRF:vertical"].push_back(600 * std::pow(std::sin(M_PI * t / 1.2), 2));
+    c.ch["GRF:vertical_left"].push_back(600 * std::pow(std::cos(M_PI * t / 1.2), 2));
+    c.ch["GRF:x"].push_back(-120 * std::sin(2 * M_PI * t / 1.2));
+    c.ch["GRF:y"].push_back(30 * std::sin(M_PI * t / 1.2));
+    c.ch["trial_time"].push_back(t);
     c.ch["EMG:cocontraction"].push_back(0.2 + 0.1 * std::cos(4 * t));
     c.ch["knee_axial_force"].push_back(650 * std::pow(std::sin(M_PI * t / 1.2), 2) + 40);
     c.ch["knee_flexion_moment"].push_back(30 * std::sin(2 * M_PI * t / 1.2));
@@ -60,8 +65,9 @@ class Effects : public ::testing::Test {
 TEST_F(Effects, TheCatalogueIsRegistered) {
   EXPECT_EQ(registry.getEffectNames(),
             (std::vector<std::string>{"adhesion_jkr", "ap_translation", "creep", "emg_cocontraction", "exponent",
-                                      "flexion_gain", "flexion_offset", "grf_load", "knee_load",
-                                      "ml_compartments", "radius_flexion", "rate", "threshold", "time_delay"}));
+                                      "flexion_gain", "flexion_offset", "grf_left", "grf_load", "grf_shear",
+                                      "hysteresis", "knee_load", "load_flexion", "ml_compartments", "radius_flexion",
+                                      "rate", "threshold", "time_delay", "trial_drift"}));
   EXPECT_THAT(registry.findOrigin("time_delay"), HasSubstr("libkneesim_gap_effects.so"));
   EXPECT_THAT(inputErrorOf([&] { Effect::fromRegistry(registry, "delay", {"g.xml", 3, "effects"}); }),
               HasSubstr("g.xml:3: effects: no effect named 'delay' (loaded: adhesion_jkr, "));
@@ -144,6 +150,41 @@ TEST_F(Effects, ClosedForms) {
                               400 * std::exp(-std::pow((t - 0.8) / 0.1, 2)));
     EXPECT_NEAR(fd2[i], hertzOf(st, k, r), 1e-2 * hertzOf(st, k, r));
   }
+}
+
+// The additive terms of motion_load_effects.c, written out by hand: direction (tanh of the flexion rate
+// over omega0 = 0.3 rad/s), GRF through a lever theta, the other foot's GRF, the horizontal components,
+// and a drift over the recording's time.
+TEST_F(Effects, MotionAndLoadEffectsClosedForms) {
+  const Channels c = makeChannels();
+  const identify::ContactLaw hertz = identify::ContactLaw::fromRegistry(registry, "hertz");
+  auto eval = [&](const std::string& effect, const std::vector<double>& values) {
+    const identify::ContactLaw law = makeExtendedLaw(hertz, {Effect::fromRegistry(registry, effect)});
+    const identify::LawInputs in(law, c.ch, c.time, "t");
+    Eigen::VectorXd p = law.getDefaultValues();
+    p[0] = 2e9;
+    for (size_t k = 0; k < values.size(); ++k) p[3 + k] = values[k];
+    Eigen::VectorXd f;
+    law.calcForce(p, in, f);
+    return f;
+  };
+  const Eigen::VectorXd f0 = eval("hysteresis", {0.0}), fh = eval("hysteresis", {150.0}),
+                        fw = eval("hysteresis", {150.0, 1.0}), fl = eval("load_flexion", {0.8}),
+                        fg = eval("grf_left", {-0.4}), fs = eval("grf_shear", {1.5, -2.0}),
+                        fd = eval("trial_drift", {12.0});
+  for (size_t i = 0; i < c.time.size(); ++i) {
+    const double v = c.ch.at("knee_flexion_rate")[i];
+    EXPECT_NEAR(fh[i] - f0[i], 150.0 * std::tanh(v / 0.3), 1e-9);
+    EXPECT_NEAR(fw[i] - f0[i], 150.0 * std::tanh(v / 1.0), 1e-9);
+    EXPECT_NEAR(fl[i] - f0[i], 0.8 * c.ch.at("GRF:vertical")[i] * c.ch.at("knee_flexion")[i], 1e-9);
+    EXPECT_NEAR(fg[i] - f0[i], -0.4 * c.ch.at("GRF:vertical_left")[i], 1e-9);
+    EXPECT_NEAR(fs[i] - f0[i], 1.5 * c.ch.at("GRF:x")[i] - 2.0 * c.ch.at("GRF:y")[i], 1e-9);
+    EXPECT_NEAR(fd[i] - f0[i], 12.0 * c.time[i], 1e-9);
+  }
+  // Flexing (t < 0.6 s here) adds h, extending removes it: at the fastest flexion (t = 0.3 s, 2.36 rad/s)
+  // tanh(7.85) = 1 to 7 digits.
+  EXPECT_NEAR(fh[36] - f0[36], 150.0, 1e-4);
+  EXPECT_NEAR(fh[108] - f0[108], -150.0, 1e-4);
 }
 
 TEST_F(Effects, EffectsComposeAndMissingChannelsAreNamed) {

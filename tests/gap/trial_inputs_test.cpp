@@ -69,6 +69,34 @@ TEST(TrialInputs, GaitEventsFromThePlatesUnderTheRightFoot) {
   EXPECT_NEAR(*std::max_element(thg.begin(), thg.end()) * 180 / M_PI, -4.437 + 1.1742 * 64.687, 1e-3);
   const auto& grf = getChannel(g, "GRF:vertical");
   EXPECT_NEAR(*std::max_element(grf.begin(), grf.end()), 695, 15);  // plate 3's peak 695 N (30 Hz low-pass)
+  // The other foot (plate 1): its peak 779 N (the plate's Fz averaged over each frame's ten analog
+  // samples, read by tests/gap/stress/jw_inputs.py, an independent reader).
+  const auto& left = getChannel(g, "GRF:vertical_left");
+  EXPECT_NEAR(*std::max_element(left.begin(), left.end()), 779, 15);
+  // The instrumented foot's horizontal components: walking along the lab's one horizontal axis,
+  // braking then propulsion of 15-25 % of body weight, and a net impulse over a stance near zero
+  // (steady walking); the medio-lateral axis carries a few percent.
+  {
+    const auto& gx = getChannel(g, "GRF:x");
+    const auto& gy = getChannel(g, "GRF:y");
+    double ix = 0, iax = 0, peak_x = 0, peak_y = 0;
+    for (int i = 1; i < g.getNumFrames(); ++i) {
+      const double dt = g.trial.time[i] - g.trial.time[i - 1];
+      if (g.trial.time[i] >= g.cycles[1].start && g.trial.time[i] < g.cycles[1].mid) ix += gx[i] * dt, iax += std::abs(gx[i]) * dt;
+      peak_x = std::max(peak_x, std::abs(gx[i]));
+      peak_y = std::max(peak_y, std::abs(gy[i]));
+    }
+    // JW 66.7 kg (654 N): peak 120 N (18 %) along x; net -7.9 N s of 36.5 N s; 52 N along y.
+    EXPECT_GT(peak_x, 0.15 * 654);
+    EXPECT_LT(peak_x, 0.25 * 654);
+    EXPECT_LT(std::abs(ix), 0.3 * iax);
+    EXPECT_LT(peak_y, 0.5 * peak_x);
+  }
+  {
+    const auto& tt = getChannel(g, "trial_time");
+    EXPECT_EQ(tt.front(), 0.0);
+    EXPECT_NEAR(tt.back(), g.trial.time.back() - g.trial.time.front(), 1e-12);
+  }
   EXPECT_EQ(g.trial.channels.count("EMG:vaslat"), 1u);
   EXPECT_EQ(g.trial.channels.count("dS_dflexion"), 1u);
   // Equation 4: medial + lateral = total.
