@@ -557,7 +557,7 @@ void checkAreaDerivatives(const WorkflowReport& r) {
 }
 
 // The gap diagnosis's fixtures (tests/gap/fixtures/README.md): the columns of the workflow's
-// contact-area files of ngait_og3 and stairupf1 that the gap engine reads. They must still be what
+// contact-area files of ngait_og3, stairupf1 and chairrise1 that the gap engine reads. They must still be what
 // the workflow computes; KNEESIM_UPDATE_GAP_FIXTURES=1 rewrites them from this run.
 void checkGapFixtures(const std::string& results) {
   const std::vector<std::string> columns = {
@@ -566,7 +566,7 @@ void checkGapFixtures(const std::string& results) {
       "dS_dt",         "dS_medial_dt", "dS_lateral_dt",     "knee_flexion",        "dS_dflexion", "dS_medial_dflexion",
       "dS_lateral_dflexion", "dS_dap", "dS_medial_dap",     "dS_lateral_dap"};
   const bool update = std::getenv("KNEESIM_UPDATE_GAP_FIXTURES") != nullptr;
-  for (const char* trial : {"ngait_og3", "stairupf1"}) {
+  for (const char* trial : {"ngait_og3", "stairupf1", "chairrise1"}) {
     SCOPED_TRACE(trial);
     const io::Storage now = io::readStorage(results + "/" + trial + "/" + trial + "_contact_area.sto");
     io::Storage fx;
