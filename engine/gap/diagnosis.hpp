@@ -24,11 +24,12 @@
 //     effects screened) is significant; it adds the best prewhitened candidate among the significant
 //     ones and those not significantly worse than the gate in raw error but significantly better in
 //     prewhitened error, if BIC favours it. Pairs that improve alike with nearly the same
-//     force change are reported as confusable, with what data would separate them. A sign-flip
-//     permutation test over cycles of the final fit's residuals then asks whether systematic
-//     structure remains; if it does the
-//     verdict is "none of the candidates" (with the best partial explanation), if nothing was
-//     selected and nothing remains, "baseline".
+//     force change are reported as confusable, with what data would separate them. Then: does
+//     structure remain (StructureTest: the mean gap against its uncertainty, a model-agnostic check by
+//     boosted trees on every signal, the noise floor from matched frames of other cycles, cycle-to-
+//     cycle heterogeneity; gap/remaining.hpp)? Four verdicts: explained, partly explained, not
+//     explained ("none of the candidates"), undecided for lack of data; "baseline" only when the
+//     withheld error is consistent with the noise floor.
 //  3. Shrinkage: withheld RMSE of the baseline and of the selected model, leaving one cycle out
 //     and leaving one activity out, overall and per phase, with bootstrap intervals over cycles.
 
@@ -37,6 +38,7 @@
 #include <vector>
 
 #include "gap/effect.hpp"
+#include "gap/remaining.hpp"
 #include "gap/signals.hpp"
 #include "gap/trial_inputs.hpp"
 #include "identify/fit.hpp"
@@ -76,7 +78,14 @@ struct DiagnosisOptions {
   /// prewhitened error), the larger prewhitened withheld improvement is selected. Reported errors
   /// stay in newtons.
   int prewhiten_order = -1;
-  double structure_alpha = 0.01;  ///< Level of the remaining-structure test.
+  /// Family level of the remaining-structure tests, shared by Bonferroni between four: the sign-flip
+  /// test of the mean gap, the model-agnostic check, the noise floor's excess and the cycles'
+  /// heterogeneity (gap/remaining.hpp).
+  double structure_alpha = 0.05;
+  /// The withheld error is consistent with the noise floor when the upper bound of its RMSE over the
+  /// floor is below this (gap/remaining.hpp NoiseFloor); "baseline" (and "explained") need it.
+  double noise_tolerance = 1.25;
+  bool agnostic_check = true;     ///< Run the model-agnostic check (boosted trees on every signal).
   int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
   int permutations = 2000;        ///< Sign flips of the remaining-structure test.
   int bootstrap = 1000;           ///< Bootstrap resamples of cycles for shrinkage intervals.
@@ -209,25 +218,37 @@ struct ConfusablePair {
   std::string separated_by;       ///< What data would separate them.
 };
 
-/// Remaining systematic structure in the gap of the final model. Two pieces of evidence:
-///  - a sign-flip permutation test on the residuals of the fit on all cycles: the statistic sums,
-///    over activities and bins of the cycle, the squared mean residual times the number of cycles;
-///    its null distribution flips the sign of whole cycles (powerful with many cycles);
-///  - the repeatability band: the RMS over the cycle of the mean withheld gap against the RMS of the
-///    between-cycle SD of the measured force, over bins with at least two cycles (the definition of
-///    noise the report uses, and the only evidence with very few cycles).
-/// Structure remains when either says so.
+/// Remaining systematic structure in the gap of the final model. Four tests, each at a quarter of
+/// DiagnosisOptions::structure_alpha (Bonferroni):
+///  - the mean gap over the cycle: a sign-flip permutation test over cycles of the fit on all cycles'
+///    residuals (the squared mean residual per bin of the cycle times the number of cycles, summed): the
+///    mean against the mean's own uncertainty, not against the single cycles' spread;
+///  - the model-agnostic check (AgnosticCheck): boosted trees on every signal, cross-validated;
+///  - the noise floor (NoiseFloor): the withheld error significantly above the scatter of matched
+///    frames of other cycles;
+///  - cycle-to-cycle heterogeneity (CycleHeterogeneity): the offsets and gains of a cycle's thirds.
+/// Structure remains when the mean gap, the model-agnostic check or the cycles say so. The noise floor is
+/// an estimate (matching imperfect in both directions): a withheld error above it, with no test finding
+/// what carries the excess, makes the verdict "undecided" (nothing selected) or "partly explained", never
+/// "none of the candidates" on its own. The repeatability band (the measured force's SD across cycles)
+/// is reported next to the systematic gap and the mean's uncertainty, no longer as a test.
 struct StructureTest {
   double statistic = 0;
-  double p_value = 0;             ///< NaN with too few cycles.
+  double p_value = 0;             ///< Sign-flip test; NaN with too few cycles.
   int cycles = 0;
   double systematic_gap = 0;      ///< RMS over bins of the mean withheld gap, N.
+  double mean_uncertainty = 0;    ///< RMS over the same bins of the mean gap's standard error (SD / sqrt(cycles)), N.
   double repeatability_band = 0;  ///< RMS over the same bins of the measured force's between-cycle SD, N.
-  bool exceeds_band = false;      ///< systematic_gap > repeatability_band.
-  bool significant = false;       ///< p_value < structure_alpha or exceeds_band.
+  bool exceeds_band = false;      ///< systematic_gap > repeatability_band (reported, not a test).
+  bool significant = false;       ///< The mean gap, the model-agnostic check or the cycles' heterogeneity.
   std::string note;
   std::vector<BandCurve> remaining;  ///< Mean held-out gap over the cycle after the selected effects.
   std::vector<SignalCorrelation> correlations;  ///< Of the remaining held-out gap.
+  AgnosticCheck agnostic;
+  NoiseFloor noise_floor;
+  CycleHeterogeneity cycle_heterogeneity;
+  /// The tests that found structure, in words ("mean gap over the cycle", "model-agnostic check", ...).
+  std::vector<std::string> evidence;
 };
 
 /// Withheld error of the baseline and the selected model.
@@ -285,7 +306,16 @@ struct TargetDiagnosis {
   std::vector<ConfusablePair> confusable;
   UndecidedCandidate undecided;
   StructureTest structure;
-  std::string verdict;            ///< "baseline", "none of the candidates", or the selected effects joined by " + ".
+  /// One of four verdicts, never more confident than the evidence: "explained" (the selected effects,
+  /// nothing significant left, the withheld error consistent with the noise floor), "partly explained"
+  /// (selected effects, but structure remains), "not explained" (nothing selected, structure remains:
+  /// none of the candidates), "undecided" (nothing selected or left significant, but the withheld error
+  /// cannot be told from the noise floor's tolerance: more cycles needed); and "baseline" (nothing
+  /// selected, nothing left, the withheld error consistent with the noise floor).
+  std::string verdict_class;
+  /// "baseline", the selected effects joined by " + " (explained), "partly explained by <effects>",
+  /// "none of the candidates" (not explained) or "undecided".
+  std::string verdict;
   std::string verdict_text;       ///< One paragraph.
   std::string final_law;
   identify::FitReport final_fit;
@@ -307,6 +337,11 @@ struct GapReport {
   std::string cv_scheme;
   std::vector<TargetDiagnosis> targets;
   std::vector<std::string> notes;
+  /// Filled by the gap tool for gap_model.json (gap/prediction.hpp): the setup file, the plugins it
+  /// loaded and the EMG envelope peaks (V) it normalised EMG channels by.
+  std::string setup_file;
+  std::vector<std::string> plugins;
+  std::map<std::string, double> emg_peaks;
 };
 
 /// Empty if @p target names a force the diagnosis can target (total, medial or lateral), else

@@ -1,29 +1,25 @@
-// The end of the gap diagnosis: whether systematic structure remains in the final model's gap
-// (sign-flip permutation test, repeatability band) and the verdict in words.
+// The end of the gap diagnosis: whether structure remains in the final model's gap (the mean gap
+// against its uncertainty, the model-agnostic check, the noise floor, cycle-to-cycle heterogeneity;
+// gap/remaining.hpp) and the verdict -- one of four, or "baseline" -- in words.
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "core/strings.hpp"
 #include "gap/diagnosis_detail.hpp"
 
 namespace kneesim::gap::detail {
 
-StructureTest structureTest(const Context& c, const Model& m) {
-  StructureTest st;
+namespace {
+
+// Sign-flip permutation test over cycles of the binned in-sample residuals: the statistic sums, over
+// activities and bins of the cycle, the squared mean residual times the number of cycles. In-sample:
+// with k-fold cross-validation the cycles of a fold share that fold's parameter error, which would
+// break the exchangeability of signs; the fit on all cycles only removes structure along the model's
+// own directions (conservative).
+void signFlipTest(const Context& c, const std::vector<std::vector<double>>& resid, StructureTest& st) {
   const int bins = c.o->structure_bins;
-  // In-sample residuals: with k-fold cross-validation the cycles of a fold share that fold's
-  // parameter error, which would break the exchangeability of signs between cycles; the fit on all
-  // cycles only removes structure along the model's own directions (conservative).
-  std::vector<std::vector<double>> gap(c.trials.size()), resid(c.trials.size());
-  for (size_t t = 0; t < c.trials.size(); ++t) {
-    gap[t].assign(c.trials[t].time.size(), kNaN);
-    resid[t].assign(c.trials[t].time.size(), kNaN);
-    for (size_t i = 0; i < gap[t].size(); ++i) {
-      gap[t][i] = c.trials[t].measured_force[i] - m.pred[t][i];
-      resid[t][i] = c.trials[t].measured_force[i] - m.fitted[t][i];
-    }
-  }
   const auto gb = unitBins(c, resid, bins);
   const auto acts = activitiesOf(c);
   auto statistic = [&](const std::vector<int>& sign) {
@@ -39,68 +35,194 @@ StructureTest structureTest(const Context& c, const Model& m) {
     return tstat;
   };
   st.cycles = static_cast<int>(c.units.size());
-  std::vector<int> ones(c.units.size(), 1);
-  st.statistic = statistic(ones);
+  st.statistic = statistic(std::vector<int>(c.units.size(), 1));
   if (st.cycles < 6) {
     st.p_value = kNaN;
     st.note = "too few cycles (" + std::to_string(st.cycles) + ") for the sign-flip test";
-  } else {
-    std::mt19937_64 rng(c.o->seed);
-    int ge = 0;
-    std::vector<int> sign(c.units.size());
-    for (int p = 0; p < c.o->permutations; ++p) {
-      for (auto& s : sign) s = (rng() & 1) ? 1 : -1;
-      if (statistic(sign) >= st.statistic) ++ge;
-    }
-    st.p_value = (1.0 + ge) / (1.0 + c.o->permutations);
+    return;
   }
-  st.remaining = makeBands(c, gap, m.pred, c.o->bins);
-  double sys = 0, band = 0;
+  std::mt19937_64 rng(c.o->seed);
+  int ge = 0;
+  std::vector<int> sign(c.units.size());
+  for (int p = 0; p < c.o->permutations; ++p) {
+    for (auto& s : sign) s = (rng() & 1) ? 1 : -1;
+    if (statistic(sign) >= st.statistic) ++ge;
+  }
+  st.p_value = (1.0 + ge) / (1.0 + c.o->permutations);
+}
+
+// What gap/remaining.hpp reads of the final model: withheld and in-sample residuals, the withheld
+// prediction, phases, units and folds.
+RemainingData remainingData(const Context& c, const Model& m) {
+  RemainingData r;
+  for (size_t t = 0; t < c.trials.size(); ++t) {
+    const auto& tr = c.trials[t];
+    const size_t n = tr.time.size();
+    r.trials.push_back(&tr);
+    r.residual.emplace_back(n, kNaN);
+    r.fitted_residual.emplace_back(n, kNaN);
+    r.prediction.push_back(m.pred[t]);
+    r.phase.push_back((*c.gap_trials)[t].cycle_phase);
+    r.unit.emplace_back(n, -1);
+  }
+  for (size_t u = 0; u < c.units.size(); ++u) {
+    const Unit& un = c.units[u];
+    for (int i : un.frames) {
+      r.residual[un.trial][i] = c.trials[un.trial].measured_force[i] - m.pred[un.trial][i];
+      r.fitted_residual[un.trial][i] = c.trials[un.trial].measured_force[i] - m.fitted[un.trial][i];
+      r.unit[un.trial][i] = static_cast<int>(u);
+    }
+    r.unit_activity.push_back(un.activity);
+  }
+  r.folds = c.folds;
+  return r;
+}
+
+std::string pc(double v) { return std::isfinite(v) ? fmt(100 * v, 3) + " %" : "n/a"; }
+
+// The evidence about what remains, in words: noise floor, model-agnostic check, mean gap, cycles.
+std::string describeRemaining(const StructureTest& st) {
+  std::string s;
+  const NoiseFloor& nf = st.noise_floor;
+  if (nf.run)
+    s += "Noise floor " + fmt(nf.floor, 3) + " N (scatter of the withheld residual between cycles at matched " +
+         nf.matched_on + ") against a withheld error of " + fmt(nf.rmse, 3) + " N: " + pc(nf.excess) +
+         " of its mean square above the floor (upper bound " + pc(nf.excess_upper) + "; " +
+         (nf.above ? "significantly above" : nf.consistent ? "consistent with it" : "cannot tell") + ").";
+  else
+    s += "No noise floor: " + nf.note + ".";
+  const AgnosticCheck& a = st.agnostic;
+  if (a.run) {
+    s += " Model-agnostic check (boosted trees on " + std::to_string(a.signals.size()) +
+         " signals, cross-validated over the cycles): removes " + pc(a.reduction) + " of the withheld error (lower bound " +
+         pc(a.reduction_lower) + "), cross-fitted score t = " + fmt(a.score_t, 3) + " (needed " +
+         fmt(a.score_critical, 3) + "): " + (a.significant ? "structure the signals carry remains" : "nothing found");
+    if (a.significant && !a.importance.empty()) {
+      s += "; carried by ";
+      for (size_t k = 0; k < a.importance.size() && k < 3; ++k)
+        s += (k ? ", " : "") + a.importance[k].signal + " (" + fmt(100 * a.importance[k].share, 2) + " %)";
+    }
+    s += ".";
+  } else if (!a.note.empty()) {
+    s += " No model-agnostic check: " + a.note + ".";
+  }
+  s += " Mean gap over the cycle " + fmt(st.systematic_gap, 3) + " N RMS against its uncertainty of " +
+       fmt(st.mean_uncertainty, 3) + " N (sign-flip p = " +
+       (std::isfinite(st.p_value) ? fmt(st.p_value, 3) : std::string("n/a")) + "; the measured force's " +
+       "repeatability band is " + fmt(st.repeatability_band, 3) + " N).";
+  const CycleHeterogeneity& h = st.cycle_heterogeneity;
+  if (h.run)
+    s += std::string(" Cycle to cycle: ") + (h.significant ? "the offset or gain differs" : "no difference") +
+         " (thirds of the cycles, p = " + fmt(h.p_value, 3) + "; gain SD " + pc(h.gain_sd) + ", offset SD " + fmt(h.offset_sd, 3) +
+         " N).";
+  return s;
+}
+
+}  // namespace
+
+StructureTest structureTest(const Context& c, const Model& m) {
+  StructureTest st;
+  const DiagnosisOptions& o = *c.o;
+  std::vector<std::vector<double>> gap(c.trials.size()), resid(c.trials.size());
+  for (size_t t = 0; t < c.trials.size(); ++t) {
+    gap[t].assign(c.trials[t].time.size(), kNaN);
+    resid[t].assign(c.trials[t].time.size(), kNaN);
+    for (size_t i = 0; i < gap[t].size(); ++i) {
+      gap[t][i] = c.trials[t].measured_force[i] - m.pred[t][i];
+      resid[t][i] = c.trials[t].measured_force[i] - m.fitted[t][i];
+    }
+  }
+  signFlipTest(c, resid, st);
+  st.remaining = makeBands(c, gap, m.pred, o.bins);
+  double sys = 0, se = 0, band = 0;
   int nb = 0;
   for (const auto& b : st.remaining)
     for (size_t k = 0; k < b.phase.size(); ++k)
       if (b.n_cycles[k] >= 2 && std::isfinite(b.mean_gap[k]) && std::isfinite(b.sd_measured[k])) {
         sys += b.mean_gap[k] * b.mean_gap[k];
+        se += b.sd_gap[k] * b.sd_gap[k] / b.n_cycles[k];
         band += b.sd_measured[k] * b.sd_measured[k];
         ++nb;
       }
   st.systematic_gap = nb ? std::sqrt(sys / nb) : kNaN;
+  st.mean_uncertainty = nb ? std::sqrt(se / nb) : kNaN;
   st.repeatability_band = nb ? std::sqrt(band / nb) : kNaN;
   st.exceeds_band = nb > 0 && st.systematic_gap > st.repeatability_band;
-  st.significant = (std::isfinite(st.p_value) && st.p_value < c.o->structure_alpha) || st.exceeds_band;
   st.correlations = correlate(c, gap, m.pred);
+
+  const double alpha = o.structure_alpha / 4;
+  RemainingOptions ro;
+  ro.alpha = alpha;
+  ro.level = o.level;
+  ro.noise_tolerance = o.noise_tolerance;
+  const RemainingData data = remainingData(c, m);
+  if (o.agnostic_check) st.agnostic = runAgnosticCheck(data, ro);
+  st.noise_floor = estimateNoiseFloor(data, ro);
+  st.cycle_heterogeneity = testCycleHeterogeneity(data, ro);
+  if (std::isfinite(st.p_value) && st.p_value < alpha) st.evidence.push_back("mean gap over the cycle");
+  if (st.agnostic.significant) st.evidence.push_back("model-agnostic check");
+  if (st.cycle_heterogeneity.significant) st.evidence.push_back("cycle-to-cycle offset or gain");
+  st.significant = !st.evidence.empty();
   return st;
 }
 
 void writeVerdict(const Context& c, const Model& current, TargetDiagnosis& d) {
   d.structure = structureTest(c, current);
+  const StructureTest& st = d.structure;
+  const NoiseFloor& nf = st.noise_floor;
   const std::string sel = join(d.selected, " + ");
-  const std::string pstr = std::isfinite(d.structure.p_value) ? fmt(d.structure.p_value, 3) : "n/a";
-  const std::string evidence =
-      "sign-flip p = " + pstr + "; systematic gap " + fmt(d.structure.systematic_gap, 3) + " N against a repeatability band of " +
-      fmt(d.structure.repeatability_band, 3) + " N";
-  std::string remaining_hint;
-  if (!d.structure.correlations.empty() && std::isfinite(d.structure.correlations[0].r))
-    remaining_hint = " The remaining gap correlates most with " + d.structure.correlations[0].signal + " (r = " +
-                     fmt(d.structure.correlations[0].r, 2) + ").";
-  if (d.structure.significant) {
-    d.verdict = "none of the candidates";
-    d.verdict_text = (d.selected.empty()
-                          ? "None of the candidates explains the gap: no effect improved the withheld error enough, "
-                            "and systematic structure remains over the cycle ("
-                          : "None of the candidates explains the whole gap: " + sel +
-                                " improve(s) the withheld error, but systematic structure remains over the cycle (") +
-                     evidence + ")." + remaining_hint;
-  } else if (d.selected.empty()) {
-    d.verdict = "baseline";
-    d.verdict_text = "The baseline law is adequate at this noise level: no effect improves the withheld error "
-                     "significantly, and no systematic structure remains (" + evidence + ").";
+  const std::string found = join(st.evidence, ", ");
+  const std::string errors = "withheld error " + fmt(d.baseline_rmse_heldout, 4) + " N -> " +
+                             fmt(std::sqrt(current.cvMse(c.units)), 4) + " N";
+  const bool floor_ok = nf.run && nf.consistent;
+  std::string needed;
+  if (nf.cycles_needed > 0)
+    needed = " About " + std::to_string(nf.cycles_needed) + " cycles (instead of " + std::to_string(nf.units) +
+             ") would tell whether the withheld error exceeds the noise floor, if the excess and its spread held.";
+  else if (!nf.run)
+    needed = " The noise floor needs cycles of the same activity to compare (" + nf.note + ").";
+  if (st.agnostic.cycles_needed > 0 && st.agnostic.reduction > 0)
+    needed += " The model-agnostic check removes " + pc(st.agnostic.reduction) +
+              " of the withheld error without significance; about " + std::to_string(st.agnostic.cycles_needed) +
+              " cycles would make it significant if its score and spread held.";
+  if (d.selected.empty()) {
+    if (st.significant) {
+      d.verdict_class = "not explained";
+      d.verdict = "none of the candidates";
+      d.verdict_text = "None of the candidates explains the gap: no effect improved the withheld error enough, and "
+                       "structure remains (" + found + ").";
+    } else if (nf.above) {
+      d.verdict_class = "undecided";
+      d.verdict = "undecided";
+      d.verdict_text = "Undecided: no effect improves the withheld error significantly and no test finds structure "
+                       "that a mean curve or the measured signals carry, but the withheld error exceeds the noise "
+                       "floor; what exceeds it cannot be told from noise the matching misses." + needed;
+    } else if (floor_ok) {
+      d.verdict_class = "baseline";
+      d.verdict = "baseline";
+      d.verdict_text = "The baseline law is adequate at this noise level: no effect improves the withheld error "
+                       "significantly, nothing significant remains, and the withheld error is consistent with the "
+                       "noise floor.";
+    } else {
+      d.verdict_class = "undecided";
+      d.verdict = "undecided";
+      d.verdict_text = "Undecided for lack of data: no effect improves the withheld error significantly and no test "
+                       "finds structure, but the withheld error cannot be told from the noise floor." + needed;
+    }
+  } else if (st.significant || nf.above) {
+    d.verdict_class = "partly explained";
+    d.verdict = "partly explained by " + sel;
+    d.verdict_text = "Partly explained by " + sel + " (" + errors + "), but " +
+                     (st.significant ? "structure remains (" + found + ") that none of the candidates explains."
+                                     : std::string("the withheld error remains significantly above the noise floor."));
   } else {
+    d.verdict_class = "explained";
     d.verdict = sel;
-    d.verdict_text = "The gap is explained by " + sel + ": withheld error " + fmt(d.baseline_rmse_heldout, 4) +
-                     " N -> " + fmt(std::sqrt(current.cvMse(c.units)), 4) + " N, and no systematic structure remains (" +
-                     evidence + ").";
+    d.verdict_text = "The gap is explained by " + sel + ": " + errors + ", and nothing significant remains" +
+                     (floor_ok ? "; the withheld error is consistent with the noise floor."
+                               : "; whether the withheld error exceeds the noise floor cannot be told." + needed);
   }
+  d.verdict_text += " " + describeRemaining(st);
   if (!d.undecided.effect.empty()) {
     const UndecidedCandidate& u = d.undecided;
     d.verdict_text +=
@@ -110,8 +232,8 @@ void writeVerdict(const Context& c, const Model& current, TargetDiagnosis& d) {
         " %). If that reduction and its spread over cycles held, about " + std::to_string(u.cycles_needed) +
         " cycles (instead of " + std::to_string(u.cycles) + ") would make it significant.";
   }
-  if (!d.untestable.empty() && d.structure.significant)
+  if (!d.untestable.empty() && st.significant)
     d.verdict_text += " Not testable on these inputs: " + join(d.untestable, "; ") + ".";
-  if (!std::isfinite(d.structure.p_value)) d.verdict_text += " (The sign-flip test needs six cycles: " + d.structure.note + ".)";
+  if (!std::isfinite(st.p_value)) d.verdict_text += " (The sign-flip test needs six cycles: " + st.note + ".)";
 }
 }  // namespace kneesim::gap::detail

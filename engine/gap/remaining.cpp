@@ -1,6 +1,7 @@
 #include "gap/remaining.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -63,6 +64,8 @@ std::vector<std::vector<double>> seriesOf(const RemainingData& d, const std::str
       s[t] = d.prediction[t];
     } else if (name == "cycle phase") {
       s[t] = d.phase[t];
+    } else if (name == "recording") {
+      s[t].assign(n, static_cast<double>(t));
     } else if (name == "knee_flexion_acceleration") {
       auto it = tr.channels.find("knee_flexion_rate");
       s[t] = it != tr.channels.end() ? derivative(tr.time, it->second) : std::vector<double>(n, kNaN);
@@ -89,6 +92,9 @@ Features buildFeatures(const RemainingData& d, const Rows& rows, const std::vect
   order.push_back("knee_flexion_acceleration");
   order.push_back("cycle phase");
   order.push_back("predicted force");
+  // Which recording a frame belongs to: structure of a recording's own (an offset, a drift with
+  // trial_time) is learnt from its other cycles.
+  if (d.trials.size() > 1) order.push_back("recording");
   Features f;
   for (const auto& name : order) {
     if (name == "knee_flexion_acceleration" && !names.count("knee_flexion_rate")) continue;
@@ -175,6 +181,8 @@ AgnosticCheck runAgnosticCheck(const RemainingData& d, const RemainingOptions& o
   const double red_t = red.sd > 0 ? red.mean / (red.sd / std::sqrt(n)) : 0.0;
   c.p_value = std::min(1.0, 2 * std::min(upperP(c.score_t, n - 1), upperP(red_t, n - 1)));
   c.significant = c.reduction_lower > 0 || c.score_t > c.score_critical;
+  if (!c.significant && c.score_t > 0)
+    c.cycles_needed = static_cast<int>(std::ceil(n * std::pow(c.score_critical / c.score_t, 2)));
   // Which signals carry it: the trees fitted on every cycle.
   std::vector<int> all(y.size());
   std::iota(all.begin(), all.end(), 0);
@@ -212,9 +220,10 @@ NoiseFloor estimateNoiseFloor(const RemainingData& d, const RemainingOptions& o)
   const Rows rows = thinnedRows(d, o.sample_rate);
   const int n_units = countUnits(d);
   // Matching signals: the cycle's phase, the flexion and its rate, the contact area, the instrumented
-  // foot's vertical GRF -- each where every trial has it.
+  // foot's vertical GRF, and the time in the recording (the nearest cycle in time: a slow drift is
+  // structure, not noise) -- each where every trial has it.
   std::vector<std::string> names{"cycle phase"};
-  for (const char* k : {"knee_flexion", "knee_flexion_rate", "S", "GRF:vertical"}) {
+  for (const char* k : {"knee_flexion", "knee_flexion_rate", "S", "GRF:vertical", "trial_time"}) {
     bool all = true;
     for (const auto* tr : d.trials) all = all && tr->channels.count(k);
     if (all) names.push_back(k);
@@ -282,146 +291,150 @@ NoiseFloor estimateNoiseFloor(const RemainingData& d, const RemainingOptions& o)
   const double max_share = 1 - 1 / (o.noise_tolerance * o.noise_tolerance);
   nf.above = ex_test.lower > 0;
   nf.consistent = ex.upper < max_share;
-  // Cycles that would settle it at the same spread: the bound moving by sqrt(n / n').
-  const double half = ex.upper - ex.mean;
-  if (!nf.above && !nf.consistent && half > 0) {
-    const double room = nf.excess < max_share ? max_share - nf.excess : nf.excess;
-    const double need = nf.excess < max_share ? half : nf.excess - ex.lower;
-    if (room > 0) nf.cycles_needed = static_cast<int>(std::ceil(nf.units * std::pow(need / room, 2)));
+  // Cycles that would settle it at the same spread (a bound moves by sqrt(n / n')): the fewer of those
+  // lifting the lower bound above zero and those bringing the upper bound under the tolerance.
+  if (!nf.above && !nf.consistent) {
+    double best = std::numeric_limits<double>::infinity();
+    if (nf.excess > 0 && nf.excess > ex_test.lower)
+      best = std::min(best, nf.units * std::pow((nf.excess - ex_test.lower) / nf.excess, 2));
+    if (nf.excess < max_share && ex.upper > nf.excess)
+      best = std::min(best, nf.units * std::pow((ex.upper - nf.excess) / (max_share - nf.excess), 2));
+    if (std::isfinite(best)) nf.cycles_needed = static_cast<int>(std::ceil(best));
   }
   nf.run = true;
   nf.note = std::to_string(nf.pairs) + " frames matched to the nearest frame of another cycle on " + nf.matched_on;
   return nf;
 }
 
-namespace {
-
-// Offset and relative gain of the residual over frames lo..hi-1: its mean m, and its projection on the
-// prediction g = sum(r F) / sum(F^2) (a residual g F has exactly g).
-bool halfFit(const RemainingData& d, const std::vector<std::pair<int, int>>& fr, size_t lo, size_t hi, double& m,
-             double& g) {
-  if (hi <= lo + 10) return false;
-  double sr = 0, srf = 0, sff = 0;
-  for (size_t k = lo; k < hi; ++k) {
-    const double r = d.fitted_residual[fr[k].first][fr[k].second], f = d.prediction[fr[k].first][fr[k].second];
-    sr += r, srf += r * f, sff += f * f;
-  }
-  m = sr / double(hi - lo);
-  g = sff > 0 ? srf / sff : 0.0;
-  return true;
-}
-
-}  // namespace
-
 CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const RemainingOptions& o) {
   CycleHeterogeneity h;
   const int n_units = countUnits(d);
-  // Per unit, its frames with a finite in-sample residual and prediction, in time order.
-  std::vector<std::vector<std::pair<int, int>>> frames(n_units);
-  for (size_t t = 0; t < d.trials.size(); ++t)
-    for (size_t i = 0; i < d.unit[t].size(); ++i)
-      if (d.unit[t][i] >= 0 && std::isfinite(d.fitted_residual[t][i]) && std::isfinite(d.prediction[t][i]))
-        frames[d.unit[t][i]].emplace_back(int(t), int(i));
-  // Split-half: the offset and gain of each half of a cycle, the halves 0.3 s apart (six correlation
-  // times of the smooth noise). A cycle's own offset or gain shows in both halves; noise does not.
-  struct Half {
-    double m1, g1, m2, g2;
+  constexpr int kSlots = 3;
+  // Per unit and slot of the cycle (thirds by phase, their outer fifths dropped: slots of a gait cycle
+  // are 0.15 s -- three correlation times of the smooth noise -- apart), the residual's offset (its
+  // mean) and relative gain (its projection on the prediction, sum(r F) / sum(F^2)).
+  struct Sums {
+    double r = 0, rf = 0, ff = 0;
+    int n = 0;
   };
-  std::map<std::string, std::vector<Half>> by_act;
+  std::vector<std::array<Sums, kSlots>> sums(n_units);
+  for (size_t t = 0; t < d.trials.size(); ++t)
+    for (size_t i = 0; i < d.unit[t].size(); ++i) {
+      const int u = d.unit[t][i];
+      const double ph = d.phase[t][i], r = d.fitted_residual[t][i], f = d.prediction[t][i];
+      if (u < 0 || !std::isfinite(ph) || !std::isfinite(r) || !std::isfinite(f)) continue;
+      const int k = std::min(kSlots - 1, static_cast<int>(ph * kSlots));
+      const double x = ph * kSlots - k;
+      if (x < 0.2 || x > 0.8) continue;
+      Sums& sm = sums[u][k];
+      sm.r += r, sm.rf += r * f, sm.ff += f * f, ++sm.n;
+    }
+  struct Cycle {
+    std::array<double, kSlots> m, g;
+  };
+  std::map<std::string, std::vector<Cycle>> by_act;
   for (int u = 0; u < n_units; ++u) {
-    const auto& fr = frames[u];
-    if (fr.size() < 30) continue;
-    const auto& time = d.trials[fr.front().first]->time;
-    const double t_mid = 0.5 * (time[fr.front().second] + time[fr.back().second]);
-    size_t a = 0, b = fr.size();
-    for (size_t k = 0; k < fr.size(); ++k) {
-      const double tk = d.trials[fr[k].first]->time[fr[k].second];
-      if (tk < t_mid - 0.15) a = k + 1;
-      if (tk > t_mid + 0.15 && b == fr.size()) b = k;
+    Cycle c{};
+    bool ok = true;
+    for (int k = 0; k < kSlots && ok; ++k) {
+      const Sums& sm = sums[u][k];
+      ok = sm.n >= 5 && sm.ff > 0;
+      if (ok) c.m[k] = sm.r / sm.n, c.g[k] = sm.rf / sm.ff;
     }
-    Half hv{};
-    if (!halfFit(d, fr, 0, a, hv.m1, hv.g1) || !halfFit(d, fr, b, fr.size(), hv.m2, hv.g2)) continue;
-    by_act[d.unit_activity[u]].push_back(hv);
-    ++h.units;
+    if (ok) by_act[d.unit_activity[u]].push_back(c);
   }
-  // Statistic: within each activity, the cross-products of the two halves' centred offsets and gains,
-  // each scaled by the pooled variance of the half estimates; the null pairs each first half with
-  // another cycle's second half of the same activity (every pairing when there are few, else 2000).
-  std::vector<std::vector<Half>> groups;
-  for (auto& [act, v] : by_act)
-    if (v.size() >= 2) groups.push_back(v);
+  // Centred per activity and slot; scaled by the pooled variance of the slot estimates.
+  std::vector<std::vector<Cycle>> groups;
   int used = 0;
-  double vm = 0, vg = 0;
-  for (auto& v : groups) {
-    double mm = 0, mg = 0, m2 = 0, g2 = 0;
-    for (const auto& x : v) mm += x.m1 + x.m2, mg += x.g1 + x.g2;
-    mm /= 2.0 * v.size();
-    mg /= 2.0 * v.size();
-    for (auto& x : v) {
-      x.m1 -= mm, x.m2 -= mm, x.g1 -= mg, x.g2 -= mg;
-      m2 += x.m1 * x.m1 + x.m2 * x.m2;
-      g2 += x.g1 * x.g1 + x.g2 * x.g2;
+  double vm = 0, vg = 0, nv = 0;
+  for (auto& [act, v] : by_act) {
+    if (v.size() < 2) continue;
+    for (int k = 0; k < kSlots; ++k) {
+      double mm = 0, mg = 0;
+      for (const auto& c : v) mm += c.m[k], mg += c.g[k];
+      mm /= v.size(), mg /= v.size();
+      for (auto& c : v) {
+        c.m[k] -= mm, c.g[k] -= mg;
+        vm += c.m[k] * c.m[k], vg += c.g[k] * c.g[k], ++nv;
+      }
     }
-    vm += m2, vg += g2;
     used += static_cast<int>(v.size());
+    groups.push_back(v);
   }
-  if (used < 3) {
-    h.note = "needs at least 3 cycles of 30 frames, two of one activity (has " + std::to_string(used) + ")";
+  h.units = used;
+  if (used < 3 || groups.empty()) {
+    h.note = "needs at least 3 cycles with every third of the cycle, two of one activity (has " +
+             std::to_string(used) + ")";
     return h;
   }
-  vm = std::max(vm / (2.0 * used), 1e-12);
-  vg = std::max(vg / (2.0 * used), 1e-12);
-  auto statistic = [&](const std::vector<std::vector<int>>& perm) {
+  vm = std::max(vm / nv, 1e-300);
+  vg = std::max(vg / nv, 1e-300);
+  // Statistic: the cross-products of a cycle's slots (each pair of slots), summed. A cycle's own offset
+  // or gain shows in all its slots; the slots' noise is independent. The null gives each slot the
+  // values of another cycle of the same activity (slot by slot, independently): every pairing when
+  // there are few, else 2000 drawn.
+  using Perm = std::vector<std::array<std::vector<int>, kSlots>>;
+  auto statistic = [&](const Perm& perm) {
     double s = 0;
-    for (size_t k = 0; k < groups.size(); ++k)
-      for (size_t u = 0; u < groups[k].size(); ++u) {
-        const Half& a = groups[k][u];
-        const Half& b = groups[k][perm[k][u]];
-        s += a.m1 * b.m2 / vm + a.g1 * b.g2 / vg;
-      }
+    for (size_t a = 0; a < groups.size(); ++a)
+      for (size_t u = 0; u < groups[a].size(); ++u)
+        for (int k = 0; k < kSlots; ++k)
+          for (int l = k + 1; l < kSlots; ++l) {
+            const Cycle& x = groups[a][perm[a][k][u]];
+            const Cycle& y = groups[a][perm[a][l][u]];
+            s += x.m[k] * y.m[l] / vm + x.g[k] * y.g[l] / vg;
+          }
     return s;
   };
-  std::vector<std::vector<int>> perm(groups.size());
+  Perm perm(groups.size());
   double count = 1;
-  for (size_t k = 0; k < groups.size(); ++k) {
-    perm[k].resize(groups[k].size());
-    std::iota(perm[k].begin(), perm[k].end(), 0);
-    for (size_t j = 2; j <= groups[k].size() && count <= 1e6; ++j) count *= double(j);
-  }
+  for (size_t a = 0; a < groups.size(); ++a)
+    for (int k = 0; k < kSlots; ++k) {
+      perm[a][k].resize(groups[a].size());
+      std::iota(perm[a][k].begin(), perm[a][k].end(), 0);
+      if (k > 0)  // the first slot may stay: only the pairing between slots matters
+        for (size_t j = 2; j <= groups[a].size() && count <= 1e7; ++j) count *= double(j);
+    }
   h.statistic = statistic(perm);
   int ge = 0, total = 0;
   if (count <= 5000) {
-    // Every pairing: odometer over the groups' permutations (the identity included).
-    std::vector<std::vector<int>> cur = perm;
+    Perm cur = perm;
     while (true) {
-      ge += statistic(cur) >= h.statistic - 1e-12;
+      ge += statistic(cur) >= h.statistic - 1e-9 * std::abs(h.statistic);
       ++total;
-      size_t k = 0;
-      while (k < cur.size() && !std::next_permutation(cur[k].begin(), cur[k].end())) ++k;
-      if (k == cur.size()) break;
+      size_t a = 0;
+      int k = 1;
+      // odometer over every group's slots 1..K-1
+      while (a < cur.size() && !std::next_permutation(cur[a][k].begin(), cur[a][k].end())) {
+        if (++k == kSlots) k = 1, ++a;
+      }
+      if (a == cur.size()) break;
     }
   } else {
     std::mt19937_64 rng(20150101);
-    std::vector<std::vector<int>> cur = perm;
+    Perm cur = perm;
     ge = 1, total = 1;
     for (int r = 0; r < 2000; ++r) {
-      for (auto& p : cur) std::shuffle(p.begin(), p.end(), rng);
-      ge += statistic(cur) >= h.statistic - 1e-12;
+      for (auto& g : cur)
+        for (int k = 1; k < kSlots; ++k) std::shuffle(g[k].begin(), g[k].end(), rng);
+      ge += statistic(cur) >= h.statistic - 1e-9 * std::abs(h.statistic);
       ++total;
     }
   }
   h.p_value = double(ge) / total;
   h.dof = total;
   h.significant = h.p_value < o.alpha;
-  // Sizes: the covariance of the two halves' estimates over cycles is the variance of what the cycle
-  // itself carries (the halves' noise is independent).
-  double cm = 0, cg = 0;
+  // Sizes: the mean cross-product of two slots of a cycle is the variance of what the cycle itself
+  // carries (their noise is independent).
+  double cm = 0, cg = 0, np = 0;
   for (const auto& v : groups)
-    for (const auto& x : v) cm += x.m1 * x.m2, cg += x.g1 * x.g2;
-  h.offset_sd = std::sqrt(std::max(0.0, cm / used));
-  h.gain_sd = std::sqrt(std::max(0.0, cg / used));
+    for (const auto& c : v)
+      for (int k = 0; k < kSlots; ++k)
+        for (int l = k + 1; l < kSlots; ++l) cm += c.m[k] * c.m[l], cg += c.g[k] * c.g[l], ++np;
+  h.offset_sd = std::sqrt(std::max(0.0, cm / np));
+  h.gain_sd = std::sqrt(std::max(0.0, cg / np));
   h.run = true;
-  h.note = "split-half offsets and gains of " + std::to_string(used) + " cycles, " + std::to_string(total) +
+  h.note = "offsets and gains of the thirds of " + std::to_string(used) + " cycles, " + std::to_string(total) +
            " pairings";
   return h;
 }

@@ -2,17 +2,17 @@
 // What remains of the gap once a model is fitted, judged without a model of what it might be (issue 17):
 //  - the model-agnostic check: boosted trees (gap/boosting.hpp) regress the model's WITHHELD residual on
 //    every signal the trials carry (flexion, its rate and acceleration; contact areas and their rates;
-//    both feet's GRF components; EMG envelopes; time in the cycle and in the recording; the model's own
-//    prediction; short lags of the kinematic and load signals; depth-2 trees give their pairwise
+//    both feet's GRF components; EMG envelopes; time in the cycle and in the recording, and which
+//    recording; the model's own prediction; short lags of the kinematic and load signals; depth-2 trees give their pairwise
 //    products), cross-validated over the same folds of cycles as the diagnosis; whether it removes
 //    significantly more of the withheld error than zero is tested over cycles (withheld-error reduction
 //    and cross-fitted score, Bonferroni), and the signals that carry what it finds are reported
 //    (share of the trees' gain, partial dependence);
-//  - the noise floor: the scatter of the withheld residual between cycles at matched phase, kinematics
-//    and load (nearest frame of another cycle of the same activity), against the withheld error itself,
-//    with intervals over cycles;
-//  - cycle-to-cycle heterogeneity: whether the residual's offset and gain on the prediction differ
-//    between cycles of an activity (split-half: the two halves of a cycle agree beyond chance).
+//  - the noise floor: the scatter of the withheld residual between cycles at matched phase, kinematics,
+//    load and time in the recording (nearest frame of another cycle of the same activity), against the
+//    withheld error itself, with intervals over cycles;
+//  - cycle-to-cycle heterogeneity: whether the residual's offset and gain differ between cycles of an
+//    activity (the thirds of a cycle agree beyond chance).
 
 #include <string>
 #include <vector>
@@ -50,6 +50,9 @@ struct AgnosticCheck {
   double score_t = 0, score_critical = 0;
   double p_value = 1;               ///< The smaller of the two tests' one-sided p, times 2 (Bonferroni).
   bool significant = false;
+  /// Not significant but the score positive: the cycles that would make it significant if the score
+  /// and its spread over cycles held, n (critical t / t)^2 (0: significant or no positive score).
+  int cycles_needed = 0;
   std::vector<SignalImportance> importance;   ///< Fit on all cycles, largest share first.
   std::vector<PartialDependence> dependence;  ///< Of the leading signals.
 };
@@ -68,16 +71,18 @@ struct NoiseFloor {
   double tolerance = 1.25;         ///< RMSE / floor consistent with noise: excess_upper below 1 - 1/tolerance^2.
   bool above = false;              ///< excess_lower > 0: the withheld error exceeds the floor.
   bool consistent = false;         ///< excess_upper below the tolerance's share.
-  /// Cycles that would settle it if the excess and its spread held (0: settled or not estimable).
+  /// Neither above nor consistent: the cycles that would settle it either way (the fewer of those that
+  /// would lift the lower bound above zero and those that would bring the upper bound under the
+  /// tolerance) if the excess and its spread held (0: settled or not estimable).
   int cycles_needed = 0;
 };
 
-/// Whether the residual's offset and gain change from cycle to cycle: split-half. Each cycle's two halves
-/// (0.3 s apart) get their own offset (mean residual) and relative gain (projection of the residual on
-/// the prediction, sum(r F) / sum(F^2)); a cycle's own offset or gain shows
-/// in both halves while the noise of two halves is independent, so over cycles of an activity the two
-/// halves' estimates correlate only when the cycles differ. The null pairs each first half with another
-/// cycle's second half (a permutation test: no model of the noise).
+/// Whether the residual's offset and gain change from cycle to cycle. Each third of a cycle (by phase,
+/// its outer fifths dropped, so that two thirds' noise is independent) gets its own offset (mean
+/// residual) and relative gain (projection of the residual on the prediction, sum(r F) / sum(F^2)); a
+/// cycle's own offset or gain shows in all its thirds, so over the cycles of an activity the thirds'
+/// centred estimates correlate only when the cycles differ. The null gives each third another cycle's
+/// (a permutation test: no model of the noise).
 struct CycleHeterogeneity {
   bool run = false;
   std::string note;
@@ -86,8 +91,8 @@ struct CycleHeterogeneity {
   double dof = 0;                  ///< Pairings the permutation null counted.
   double p_value = 1;
   bool significant = false;
-  /// Between-cycle SD of the relative gain and of the offset (N): from the covariance of the halves (an
-  /// offset also shows in the gain and a gain in the offset: sizes, not a decomposition).
+  /// Between-cycle SD of the relative gain and of the offset (N): from the covariance of a cycle's thirds
+  /// (an offset also shows in the gain and a gain in the offset: sizes, not a decomposition).
   double gain_sd = 0, offset_sd = 0;
 };
 

@@ -12,6 +12,8 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/strings.hpp"
+#include "gap/prediction.hpp"
 #include "identify/report_json.hpp"
 
 namespace kneesim::gap {
@@ -67,6 +69,54 @@ json correlationsJson(const std::vector<SignalCorrelation>& cs) {
   return a;
 }
 
+json noiseFloorJson(const NoiseFloor& n) {
+  return {{"run", n.run},
+          {"note", n.note},
+          {"matched_on", n.matched_on},
+          {"cycles", n.units},
+          {"matched_frames", n.pairs},
+          {"floor_N", num(n.floor)},
+          {"withheld_rmse_N", num(n.rmse)},
+          {"excess_share", num(n.excess)},
+          {"excess_share_lower", num(n.excess_lower)},
+          {"excess_share_upper", num(n.excess_upper)},
+          {"tolerance_rmse_over_floor", num(n.tolerance)},
+          {"above", n.above},
+          {"consistent", n.consistent},
+          {"cycles_needed", n.cycles_needed}};
+}
+
+json agnosticJson(const AgnosticCheck& a) {
+  json imp = json::array(), dep = json::array();
+  for (const auto& i : a.importance) imp.push_back({{"signal", i.signal}, {"share", num(i.share)}});
+  for (const auto& p : a.dependence) {
+    json x = json::array(), y = json::array();
+    for (double v : p.x) x.push_back(num(v));
+    for (double v : p.y) y.push_back(num(v));
+    dep.push_back({{"signal", p.signal}, {"x", x}, {"fitted_residual_N", y}});
+  }
+  return {{"run", a.run},
+          {"note", a.note},
+          {"cycles", a.units},
+          {"frames", a.frames},
+          {"features", a.features},
+          {"signals", a.signals},
+          {"relative_mse_reduction", num(a.reduction)},
+          {"relative_mse_reduction_one_sided_lower", num(a.reduction_lower)},
+          {"cross_fitted_score_t", num(a.score_t)},
+          {"cross_fitted_score_critical_t", num(a.score_critical)},
+          {"p_value", num(a.p_value)},
+          {"significant", a.significant},
+          {"importance", imp},
+          {"partial_dependence", dep}};
+}
+
+json heterogeneityJson(const CycleHeterogeneity& h) {
+  return {{"run", h.run},          {"note", h.note},           {"cycles", h.units},
+          {"statistic", num(h.statistic)}, {"p_value", num(h.p_value)}, {"significant", h.significant},
+          {"gain_sd", num(h.gain_sd)},     {"offset_sd_N", num(h.offset_sd)}};
+}
+
 // Title prefix of the plots: what kind of data they show when it is not real data.
 std::string banner(const GapReport& r) {
   return std::string(r.synthetic ? "SYNTHETIC TRIALS - " : "") + (r.interim_inputs ? "INTERIM INPUTS - " : "");
@@ -102,6 +152,7 @@ json toJson(const GapReport& r, const Anchors& a) {
   for (const auto& d : r.targets) {
     json t;
     t["target"] = d.target;
+    t["verdict_class"] = d.verdict_class;
     t["verdict"] = d.verdict;
     t["verdict_text"] = d.verdict_text;
     t["selected"] = d.selected;
@@ -204,11 +255,16 @@ json toJson(const GapReport& r, const Anchors& a) {
     for (const auto& b : d.structure.remaining) rem.push_back(bandJson(b));
     t["remaining_structure"] = {{"statistic", num(d.structure.statistic)}, {"p_value", num(d.structure.p_value)},
                                 {"cycles", d.structure.cycles}, {"significant", d.structure.significant},
+                                {"evidence", d.structure.evidence},
                                 {"systematic_gap_N", num(d.structure.systematic_gap)},
+                                {"mean_gap_uncertainty_N", num(d.structure.mean_uncertainty)},
                                 {"repeatability_band_N", num(d.structure.repeatability_band)},
                                 {"exceeds_band", d.structure.exceeds_band},
                                 {"note", d.structure.note}, {"bands", rem},
-                                {"correlations", correlationsJson(d.structure.correlations)}};
+                                {"correlations", correlationsJson(d.structure.correlations)},
+                                {"noise_floor", noiseFloorJson(d.structure.noise_floor)},
+                                {"model_agnostic_check", agnosticJson(d.structure.agnostic)},
+                                {"cycle_heterogeneity", heterogeneityJson(d.structure.cycle_heterogeneity)}};
     json sh = json::array();
     for (const auto& s : d.shrinkage)
       sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
@@ -221,6 +277,60 @@ json toJson(const GapReport& r, const Anchors& a) {
   j["targets"] = targets;
   return j;
 }
+
+namespace {
+
+// The "What remains" section: each test, the noise floor and the signals carrying what is left.
+void writeRemaining(std::ostringstream& s, const TargetDiagnosis& d) {
+  const StructureTest& st = d.structure;
+  s << "### What remains after `" << d.final_law << "`\n\n"
+    << "Verdict class: **" << d.verdict_class << "**. Each test at a quarter of the family level (Bonferroni); "
+    << (st.evidence.empty() ? std::string("none finds structure") : "structure found by: " + join(st.evidence, ", "))
+    << ".\n\n| test | result |\n|---|---|\n";
+  s << "| mean gap over the cycle (sign-flip over " << st.cycles << " cycles) | p = " << fmt(st.p_value, 3)
+    << "; " << fixed(st.systematic_gap, 0) << " N RMS against its uncertainty of " << fixed(st.mean_uncertainty, 0)
+    << " N (the measured force's repeatability band: " << fixed(st.repeatability_band, 0) << " N)"
+    << (st.note.empty() ? "" : "; " + st.note) << " |\n";
+  const AgnosticCheck& a = st.agnostic;
+  s << "| model-agnostic check | ";
+  if (a.run)
+    s << "removes " << pct(a.reduction) << " of the withheld error (lower bound " << pct(a.reduction_lower)
+      << "); cross-fitted score t " << fixed(a.score_t, 2) << " (needed " << fixed(a.score_critical, 2) << "); "
+      << (a.significant ? "**significant**" : "not significant") << " (" << a.note << ") |\n";
+  else
+    s << "not run: " << a.note << " |\n";
+  const NoiseFloor& n = st.noise_floor;
+  s << "| noise floor | ";
+  if (n.run)
+    s << fixed(n.floor, 0) << " N against a withheld error of " << fixed(n.rmse, 0) << " N; " << pct(n.excess)
+      << " of the mean square above it [" << pct(n.excess_lower) << ", " << pct(n.excess_upper) << "]: "
+      << (n.above ? "**above**" : n.consistent ? "consistent" : "cannot tell")
+      << (n.cycles_needed > 0 ? " (about " + std::to_string(n.cycles_needed) + " cycles would tell)" : "") << "; "
+      << n.note << " |\n";
+  else
+    s << "not estimated: " << n.note << " |\n";
+  const CycleHeterogeneity& h = st.cycle_heterogeneity;
+  s << "| cycle-to-cycle offset and gain | ";
+  if (h.run)
+    s << "p = " << fmt(h.p_value, 3) << (h.significant ? " (**significant**)" : "") << "; gain SD " << pct(h.gain_sd)
+      << ", offset SD " << fixed(h.offset_sd, 0) << " N (" << h.note << ") |\n";
+  else
+    s << "not run: " << h.note << " |\n";
+  s << "\nThe noise floor is the scatter of the withheld residual between cycles at matched phase, kinematics and "
+       "load: anything that changes from cycle to cycle at the same kinematics and load counts as noise there.\n\n";
+  if (a.run && !a.importance.empty()) {
+    s << "Signals carrying what the model-agnostic check fits (share of its trees' gain, on all cycles):\n\n"
+         "| signal | share |\n|---|---:|\n";
+    for (size_t k = 0; k < a.importance.size() && k < 8; ++k)
+      s << "| " << a.importance[k].signal << " | " << pct(a.importance[k].share) << " |\n";
+    s << "\n";
+  }
+  if (!st.correlations.empty())
+    s << "Strongest remaining correlation: " << st.correlations[0].signal << " (r = " << fixed(st.correlations[0].r, 2)
+      << ").\n\n";
+}
+
+}  // namespace
 
 std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& plots, const Anchors& a) {
   std::ostringstream s;
@@ -330,15 +440,8 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
       for (const auto& u : d.untestable) s << "- " << u << "\n";
       s << "\n";
     }
-    s << "Remaining structure after `" << d.final_law << "`: sign-flip test over cycles, p = "
-      << fmt(d.structure.p_value, 3) << " (" << d.structure.cycles << " cycles); systematic gap "
-      << fixed(d.structure.systematic_gap, 0) << " N against a repeatability band of "
-      << fixed(d.structure.repeatability_band, 0) << " N"
-      << (d.structure.note.empty() ? "" : "; " + d.structure.note) << ".";
-    if (!d.structure.correlations.empty())
-      s << " Strongest remaining correlation: " << d.structure.correlations[0].signal << " (r = "
-        << fixed(d.structure.correlations[0].r, 2) << ").";
-    s << "\n\n### How far it shrinks\n\n"
+    writeRemaining(s, d);
+    s << "### How far it shrinks\n\n"
          "| scheme | scope | trained on | cycles | baseline RMSE | selected RMSE | reduction [95 % CI] |\n"
          "|---|---|---|---:|---:|---:|---|\n";
     for (const auto& x : d.shrinkage)
@@ -363,6 +466,37 @@ std::string dq(const std::string& s) {
   std::string o;
   for (char c : s) o += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
   return o;
+}
+
+// What remains after the selected effects: the model-agnostic check's result and carrying signals (their
+// share of the trees' gain), the partial dependence on the leading ones against +- the noise floor.
+std::string remainingScript(const GapReport& r, const TargetDiagnosis& d) {
+  const std::string tg = d.target;
+  const AgnosticCheck& a = d.structure.agnostic;
+  const NoiseFloor& n = d.structure.noise_floor;
+  const int np = static_cast<int>(a.dependence.size());
+  std::ostringstream g;
+  g << "set terminal pngcairo size 1000," << (1 + np) * 280 << " font ',10' noenhanced\n"
+    << "set output '" << tg << "_remaining.png.tmp'\nset multiplot layout " << 1 + np << ",1 title \""
+    << dq(banner(r) + tg + " force: what remains after " + d.final_law + " (" + d.verdict_class + ")") << "\"\n"
+    << "set grid ytics\nset style fill solid 0.8\nset boxwidth 0.7\nset xtics rotate by -30\n"
+    << "set title \"" << dq("model-agnostic check: removes " + pct(a.reduction) + " of the withheld error (lower bound " +
+                           pct(a.reduction_lower) + "), score t " + fixed(a.score_t, 2) + " (needed " +
+                           fixed(a.score_critical, 2) + "): " + (a.significant ? "significant" : "not significant") +
+                           "; signals' share of its fit")
+    << "\"\nset ylabel '% of the gain'\nplot '" << tg << "_remaining.dat' index 0 using 0:2:xtic(1) with boxes lc rgb "
+       "'#fd8d3c' notitle\nset xtics norotate\n";
+  for (int k = 0; k < np; ++k) {
+    g << "set title \"" << dq("partial dependence on " + a.dependence[k].signal + "; dashed: +- the noise floor (" +
+                             fixed(n.floor, 0) + " N; withheld error " + fixed(n.rmse, 0) + " N)")
+      << "\"\nset xlabel \"" << dq(a.dependence[k].signal) << "\"\nset ylabel 'fitted residual (N)'\n"
+      << "plot '" << tg << "_remaining.dat' index " << k + 1
+      << " using 1:2 with linespoints lw 2 lc rgb '#e6550d' notitle, " << (std::isfinite(n.floor) ? n.floor : 0.0)
+      << " with lines dt 2 lc rgb '#555555' notitle, " << (std::isfinite(n.floor) ? -n.floor : 0.0)
+      << " with lines dt 2 lc rgb '#555555' notitle, 0 with lines lc rgb 'black' notitle\n";
+  }
+  g << "unset multiplot\n";
+  return g.str();
 }
 
 }  // namespace
@@ -414,6 +548,20 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
       }
     });
     for (const char* suffix : {"_series.dat", "_bands.dat", "_ranking.dat"}) written.push_back(tg + suffix);
+    const AgnosticCheck& ag = d.structure.agnostic;
+    const bool remaining_plot = ag.run && !ag.importance.empty();
+    if (remaining_plot) {
+      writeFileAtomically(directory + "/" + tg + "_remaining.dat", [&](std::ostream& f) {
+        f << "# block 0: signal share_percent (model-agnostic check's trees, all cycles); then one block per "
+             "signal: value fitted_residual_N (partial dependence)\n";
+        for (const auto& im : ag.importance) f << "\"" << im.signal << "\" " << 100 * im.share << "\n";
+        for (const auto& pd : ag.dependence) {
+          f << "\n\n# " << pd.signal << "\n";
+          for (size_t k = 0; k < pd.x.size(); ++k) f << pd.x[k] << " " << pd.y[k] << "\n";
+        }
+      });
+      written.push_back(tg + "_remaining.dat");
+    }
 
     // ---- gnuplot scripts
     const int nb = static_cast<int>(d.bands.size());
@@ -461,8 +609,9 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
             "set title 'withheld mean-square-error reduction of the fully fitted candidates'\nset ylabel '%'\n"
             "plot '" << tg << "_ranking.dat' using 0:($3==$3?$3:0):xtic(1) with boxes lc rgb '#31a354' notitle\n"
             "unset multiplot\n";
-    const std::pair<std::string, std::string> scripts[] = {
+    std::vector<std::pair<std::string, std::string>> scripts = {
         {tg + "_bands", bands.str()}, {tg + "_fits", fits.str()}, {tg + "_ranking", rank.str()}};
+    if (remaining_plot) scripts.emplace_back(tg + "_remaining", remainingScript(r, d));
     for (const auto& [name, text] : scripts) {
       writeFileAtomically(directory + "/" + name + ".gp", [&](std::ostream& f) { f << text; });
       written.push_back(name + ".gp");
@@ -479,6 +628,8 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
   }
   writeFileAtomically(directory + "/gap_report.json",
                       [&](std::ostream& f) { f << toJson(rep, o.anchors).dump(2) << "\n"; });
+  writeFileAtomically(directory + "/gap_model.json", [&](std::ostream& f) { f << formatGapModel(makeGapModel(rep)); });
+  written.push_back("gap_model.json");
   writeFileAtomically(directory + "/gap_report.md",
                       [&](std::ostream& f) { f << formatMarkdown(rep, plots, o.anchors); });
   written.push_back("gap_report.json");

@@ -366,6 +366,7 @@ bool isRightAnswer(const std::string& answer, const std::string& expected,
                    const std::vector<InjectedEffect>& injected) {
   if (answer == expected) return true;
   if (expected != "baseline") return false;
+  if (answer == "undecided") return !injected.empty();
   return std::any_of(injected.begin(), injected.end(), [&](const InjectedEffect& e) { return e.effect == answer; });
 }
 
@@ -462,6 +463,7 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
   for (const auto& e : catalogue) res.columns.push_back(e.getName());
   res.columns.push_back("baseline");
   res.columns.push_back("none of the candidates");
+  res.columns.push_back("undecided");
   // What each case's injected component leaves once the baseline has absorbed what it can: the
   // noise-free trials of seed 1, the baseline refitted to them, the RMS of its residual.
   std::vector<std::string> expected;
@@ -526,8 +528,12 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
     out.injected_rms = n ? std::sqrt(ss / n) : 0.0;
     const GapReport rep = diagnose(base, catalogue, trials, bo.diagnosis);
     const TargetDiagnosis& d = rep.targets.front();
-    out.answer = d.verdict == "baseline" || d.verdict == "none of the candidates" ? d.verdict : d.selected.front();
-    out.correct = isRightAnswer(out.answer, out.expected, bc.effects);
+    out.verdict_class = d.verdict_class;
+    if (d.verdict_class == "baseline" || d.verdict_class == "undecided") out.answer = d.verdict_class;
+    else if (d.verdict_class == "not explained") out.answer = "none of the candidates";
+    else out.answer = d.selected.front();
+    out.correct = isRightAnswer(out.answer, out.expected, bc.effects) ||
+                  (out.expected == "none of the candidates" && d.verdict_class == "partly explained");
     for (const auto& cp : d.confusable) {
       if (cp.a == out.answer) out.confusable_with_answer.push_back(cp.b);
       if (cp.b == out.answer) out.confusable_with_answer.push_back(cp.a);
@@ -553,10 +559,19 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
                   (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
       out.trace.push_back(line);
     }
-    out.trace.push_back("verdict: " + d.verdict + " (remaining structure: sign-flip p " +
-                        formatSignificant(d.structure.p_value, 3) + ", systematic gap " +
-                        formatSignificant(d.structure.systematic_gap, 3) + " N, band " +
-                        formatSignificant(d.structure.repeatability_band, 3) + " N)");
+    const StructureTest& st = d.structure;
+    out.trace.push_back(
+        "verdict: " + out.answer + " [" + d.verdict_class + "] (remaining structure: sign-flip p " +
+        formatSignificant(st.p_value, 3) + ", mean gap " + formatSignificant(st.systematic_gap, 3) + " N +- " +
+        formatSignificant(st.mean_uncertainty, 3) + " N; agnostic check " +
+        formatSignificant(100 * st.agnostic.reduction, 3) + "% (lb " +
+        formatSignificant(100 * st.agnostic.reduction_lower, 3) + "%), score t " +
+        formatSignificant(st.agnostic.score_t, 3) + " (" + formatSignificant(st.agnostic.score_critical, 3) +
+        "); noise floor " + formatSignificant(st.noise_floor.floor, 3) + " N of " +
+        formatSignificant(st.noise_floor.rmse, 3) + " N, excess " + formatSignificant(100 * st.noise_floor.excess, 3) +
+        "% [" + formatSignificant(100 * st.noise_floor.excess_lower, 3) + ", " +
+        formatSignificant(100 * st.noise_floor.excess_upper, 3) + "]; cycles p " +
+        formatSignificant(st.cycle_heterogeneity.p_value, 3) + ")");
     out.rmse_baseline = d.baseline_rmse_heldout;
     out.rmse_final = d.shrinkage.front().rmse_final;
     if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {

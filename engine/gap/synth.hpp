@@ -114,18 +114,25 @@ struct BlindCase {
 /// is comparable to the noise, and a force bump locked to the cycle (outside the catalogue).
 std::vector<BlindCase> getDefaultBlindCases();
 
-/// Whether @p answer (an effect, "baseline" or "none of the candidates") is right for a case
-/// whose right answer is @p expected and into which @p injected was put. Where the baseline absorbs
-/// the injected effects (@p expected is "baseline" although something is injected), naming one of
-/// them is right too: it is there, so naming it is no false claim; naming any other effect is wrong.
+/// Whether @p answer (an effect, "baseline", "none of the candidates" or "undecided") is right for a
+/// case whose right answer is @p expected and into which @p injected was put. Where the baseline
+/// absorbs the injected effects (@p expected is "baseline" although something is injected), naming one
+/// of them is right too: it is there, so naming it is no false claim; so is "undecided" (what the
+/// baseline leaves of it is there too, under the noise: "cannot tell" claims nothing false); naming
+/// any other effect, or "none of the candidates", is wrong. With nothing injected only "baseline" is.
 bool isRightAnswer(const std::string& answer, const std::string& expected, const std::vector<InjectedEffect>& injected);
 
 /// One blind diagnosis.
 struct BlindOutcome {
   std::string case_name, expected;
   unsigned long long seed = 0;
-  std::string answer;        ///< The first selected effect, "baseline" or "none of the candidates".
-  bool correct = false;      ///< isRightAnswer: the expected answer or, for an absorbed effect, that effect.
+  /// The first selected effect (explained or partly explained), "baseline", "none of the candidates"
+  /// (not explained) or "undecided".
+  std::string answer;
+  std::string verdict_class;  ///< TargetDiagnosis::verdict_class.
+  /// isRightAnswer: the expected answer or, for an absorbed effect, that effect; for an effect outside
+  /// the catalogue (expected "none of the candidates") "partly explained" is right too.
+  bool correct = false;
   /// Effects the diagnosis reported as confusable with its answer (pairs it could not tell apart).
   std::vector<std::string> confusable_with_answer;
   /// The answer is right, or the diagnosis reported it confusable with the injected effect.

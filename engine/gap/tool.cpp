@@ -4,6 +4,7 @@
 #include <set>
 
 #include "core/strings.hpp"
+#include "io/storage.hpp"
 #include "core/xml.hpp"
 #include "plugin/registry.hpp"
 
@@ -44,7 +45,6 @@ TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   if (s.name.empty()) t.fail("expected a name attribute on <Trial>");
   s.activity = t.attr("activity").value_or("gait");
   s.knee_forces = xml::resolvePath(dir, t.childText("knee_forces"));
-  if (s.knee_forces.empty()) t.fail("missing <knee_forces>");
   s.contact_area = xml::resolvePath(dir, t.childText("contact_area"));
   s.c3d = xml::resolvePath(dir, t.childText("c3d"));
   s.kinematics = xml::resolvePath(dir, t.childText("kinematics"));
@@ -188,14 +188,21 @@ GapRunResult runGap(const GapSetup& s, const std::function<void(const std::strin
   for (const auto& n : names) catalogue.push_back(Effect::fromRegistry(registry, n, {s.setup_file, 0, "GapTool/effects"}));
   std::vector<GapTrial> trials;
   for (const auto& t : s.trials) {
+    if (t.knee_forces.empty())
+      throw InputError(t.where, "trial '" + t.name + "': the diagnosis needs measured knee forces (<knee_forces>), got "
+                                "none (a trial without them can be predicted: kneesim gap --predict gap_model.json)");
     say("assembling trial " + t.name);
     trials.push_back(assembleTrial(t));
   }
   GapRunResult res;
-  res.dead_emg = normalizeEmg(trials, s.trials.front().emg_flexors, s.trials.front().emg_extensors);
+  std::map<std::string, double> emg_peaks;
+  res.dead_emg = normalizeEmg(trials, s.trials.front().emg_flexors, s.trials.front().emg_extensors, nullptr, &emg_peaks);
   say("diagnosing " + std::to_string(trials.size()) + " trial(s) against " + std::to_string(catalogue.size()) +
       " effect(s)");
   res.report = diagnose(law, catalogue, trials, s.options);
+  res.report.setup_file = s.setup_file;
+  res.report.plugins = s.plugins;
+  res.report.emg_peaks = emg_peaks;
   for (const auto& g : trials)
     for (const auto& n : g.notes) res.report.notes.push_back(g.trial.name + ": " + n);
   if (!res.dead_emg.empty()) {
@@ -206,6 +213,45 @@ GapRunResult runGap(const GapSetup& s, const std::function<void(const std::strin
   say("writing the report into " + res.directory);
   res.files = writeGapReport(res.directory, res.report, s.report);
   return res;
+}
+
+PredictRunResult runPredict(const GapSetup& s, const std::string& model_path,
+                            const std::function<void(const std::string&)>& log) {
+  auto say = [&](const std::string& m) {
+    if (log) log(m);
+  };
+  PredictRunResult res;
+  res.model = readGapModel(model_path);
+  plugin::Registry registry;
+  for (const auto& p : res.model.plugins) registry.loadPlugin(p, {model_path, 0, "plugins"});
+  std::vector<GapTrial> trials;
+  for (const auto& t : s.trials) {
+    say("assembling trial " + t.name);
+    trials.push_back(assembleTrial(t));
+  }
+  normalizeEmg(trials, s.trials.front().emg_flexors, s.trials.front().emg_extensors, &res.model.emg_peaks);
+  res.predictions = predictTrials(res.model, registry, trials, model_path);
+  res.directory = s.results_directory;
+  say("writing the predictions into " + res.directory);
+  fs::create_directories(res.directory);
+  for (const auto& p : res.predictions) {
+    io::writeStorage(res.directory + "/" + p.trial + "_predicted.sto", toStorage(p));
+    res.files.push_back(p.trial + "_predicted.sto");
+  }
+  return res;
+}
+
+void printPredictSummary(const PredictRunResult& r, std::ostream& out) {
+  out << "gap model " << r.model.law << " (fitted on " << join(r.model.trials, ", ") << ") predicting "
+      << r.predictions.size() << " trial(s)\n";
+  for (const auto& t : r.model.targets)
+    out << "  " << t.target << ": " << t.law << " (" << (t.verdict_class.empty() ? "?" : t.verdict_class) << ")\n";
+  for (const auto& p : r.predictions) {
+    out << "  " << p.trial << ": " << p.time.size() << " frames";
+    for (const auto& [target, e] : p.rmse) out << "; " << target << " RMSE against its measured force " << e << " N";
+    out << "\n";
+  }
+  out << "  predictions: " << r.directory << "/<trial>_predicted.sto\n";
 }
 
 void printGapSummary(const GapRunResult& r, std::ostream& out) {

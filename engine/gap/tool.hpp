@@ -23,7 +23,8 @@
 //     <emg_flexors>bifeml semimem medgas latgas</emg_flexors>  <emg_extensors>vasmed vaslat rf</emg_extensors>
 //     <trials>
 //       <Trial name="ngait_og3" activity="gait">
-//         <knee_forces>...csv</knee_forces>  <contact_area>...sto</contact_area>
+//         <knee_forces>...csv</knee_forces>  <contact_area>...sto</contact_area>   (no knee_forces:
+//                            the trial can only be predicted, kneesim gap --predict)
 //         <c3d>...c3d</c3d>  <kinematics>...mot</kinematics>  <flexion_column>knee_flexion</flexion_column>
 //         <flexion_source>auto</flexion_source>  <events>auto</events>  <event_times>...</event_times>
 //         <time_range>t0 t1</time_range>
@@ -39,6 +40,7 @@
 #include <vector>
 
 #include "gap/diagnosis.hpp"
+#include "gap/prediction.hpp"
 #include "gap/report.hpp"
 #include "gap/trial_inputs.hpp"
 
@@ -87,5 +89,23 @@ GapRunResult runGap(const GapSetup& setup, const std::function<void(const std::s
 
 /// A few lines for the terminal: verdicts, withheld errors, where the report is.
 void printGapSummary(const GapRunResult& result, std::ostream& out);
+
+/// What runPredict produced.
+struct PredictRunResult {
+  GapModel model;
+  std::vector<TrialPrediction> predictions;
+  std::string directory;
+  std::vector<std::string> files;  ///< Relative to directory.
+};
+
+/// Applies the gap model @p model_path (a diagnosis's gap_model.json) to the setup's trials, which need
+/// no knee forces (without them the frames are the contact-area file's; with them the report adds the
+/// prediction's RMSE), and writes <results_directory>/<trial>_predicted.sto: time, cycle_phase and the
+/// predicted force of every target the model has (total, medial, lateral; and "<target>_measured").
+PredictRunResult runPredict(const GapSetup& setup, const std::string& model_path,
+                            const std::function<void(const std::string&)>& log = {});
+
+/// A few lines for the terminal: the model and each trial's prediction.
+void printPredictSummary(const PredictRunResult& result, std::ostream& out);
 
 }  // namespace kneesim::gap

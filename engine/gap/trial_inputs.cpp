@@ -207,7 +207,8 @@ void setCycles(GapTrial& g, const std::vector<double>& starts_in, const std::vec
 GapTrial assembleTrial(const TrialSource& src) {
   const SourceLocation& where = src.where;
   const std::string who = "trial '" + src.name + "'";
-  if (src.knee_forces.empty()) throw InputError(where, who + ": expected a knee-force CSV, got none");
+  // Without a knee-force file the trial has no measured force (NaN): it can be predicted, not diagnosed.
+  const bool have_forces = !src.knee_forces.empty();
   if (src.contact_area.empty())
     throw InputError(where, who + ": expected a contact-area .sto (the contact-area tool's output), got none");
   // A missing input names the setup element that led to it (the readers would name only the path).
@@ -226,13 +227,16 @@ GapTrial assembleTrial(const TrialSource& src) {
   g.trial.name = src.name;
   g.trial.source = where;
 
-  io::KneeForces kf = io::readKneeForces(src.knee_forces);
+  io::KneeForces kf;
+  if (have_forces) kf = io::readKneeForces(src.knee_forces);
   io::C3dFile c3d;
   const bool have_c3d = !src.c3d.empty();
   if (have_c3d) {
     c3d = io::readC3d(src.c3d);
-    kf = io::retimeToFrames(kf, c3d.first_frame, c3d.header.frame_rate);
-    g.notes.push_back("knee forces re-timed to the frames of " + src.c3d);
+    if (have_forces) {
+      kf = io::retimeToFrames(kf, c3d.first_frame, c3d.header.frame_rate);
+      g.notes.push_back("knee forces re-timed to the frames of " + src.c3d);
+    }
   }
   const io::Storage area = io::readStorage(src.contact_area);
   if (area.findColumn("time") < 0 || area.findColumn("S") < 0 || area.getNumRows() < 2)
@@ -253,20 +257,28 @@ GapTrial assembleTrial(const TrialSource& src) {
   const bool have_motion = !src.kinematics.empty();
   if (have_motion) motion = io::readStorage(src.kinematics);
 
-  // ---- common time base: the knee-force frames inside every source's range
+  // ---- common time base: the knee-force frames (else the area file's) inside every source's range
   const double at0 = area.data(0, area.findColumn("time")),
                at1 = area.data(area.getNumRows() - 1, area.findColumn("time"));
-  double lo = std::max({at0, kf.time.front(), src.time_range.begin});
-  double hi = std::min({at1, kf.time.back(), src.time_range.end});
+  std::vector<double> frames_in;
+  if (have_forces) {
+    frames_in = kf.time;
+  } else {
+    for (int i = 0; i < area.getNumRows(); ++i) frames_in.push_back(area.data(i, area.findColumn("time")));
+    g.notes.push_back("no knee-force file: frames of the contact-area file, no measured force (prediction only)");
+  }
+  double lo = std::max({at0, frames_in.front(), src.time_range.begin});
+  double hi = std::min({at1, frames_in.back(), src.time_range.end});
   if (have_motion) {
     lo = std::max(lo, motion.data(0, motion.findColumn("time")));
     hi = std::min(hi, motion.data(motion.getNumRows() - 1, motion.findColumn("time")));
   }
-  const double half = 0.5 / frameRate(kf.time);
-  for (size_t i = 0; i < kf.time.size(); ++i)
-    if (kf.time[i] >= lo - half && kf.time[i] <= hi + half) g.trial.time.push_back(kf.time[i]);
+  const double half = 0.5 / frameRate(frames_in);
+  for (double x : frames_in)
+    if (x >= lo - half && x <= hi + half) g.trial.time.push_back(x);
   if (g.trial.time.size() < 10)
-    throw InputError(where, who + ": expected the knee forces (" + fmt(kf.time.front()) + "-" + fmt(kf.time.back()) +
+    throw InputError(where, who + ": expected the " + (have_forces ? "knee forces" : "frames") + " (" +
+                                fmt(frames_in.front()) + "-" + fmt(frames_in.back()) +
                                 " s), the contact areas (" + fmt(at0) + "-" + fmt(at1) + " s)" +
                                 (have_motion ? ", the kinematics" : std::string()) +
                                 " and the time range to overlap by at least 10 frames, got " +
@@ -277,9 +289,13 @@ GapTrial assembleTrial(const TrialSource& src) {
   auto& ch = g.trial.channels;
 
   // ---- measured forces
-  g.trial.measured_force = interpolate(kf.time, kf.total, t, half);
-  g.medial = interpolate(kf.time, kf.medial, t, half);
-  g.lateral = interpolate(kf.time, kf.lateral, t, half);
+  if (have_forces) {
+    g.trial.measured_force = interpolate(kf.time, kf.total, t, half);
+    g.medial = interpolate(kf.time, kf.medial, t, half);
+    g.lateral = interpolate(kf.time, kf.lateral, t, half);
+  } else {
+    g.trial.measured_force = g.medial = g.lateral = std::vector<double>(n, kNaN);
+  }
 
   // ---- contact-area channels: every column of the file
   for (size_t c = 0; c < area.labels.size(); ++c) {
@@ -340,6 +356,8 @@ GapTrial assembleTrial(const TrialSource& src) {
     ch["knee_flexion"] = v;
     g.notes.push_back("knee_flexion from " + src.kinematics + " column " + src.flexion_column);
   } else if (fsrc == "gon") {
+    if (!have_forces)
+      throw InputError(where, who + ": flexion source 'gon': expected a knee-force file with its GON column, got none");
     std::vector<double> gon = interpolate(kf.time, kf.goniometer, t, half);
     for (double x : gon)
       if (!std::isfinite(x))
@@ -449,7 +467,7 @@ GapTrial assembleTrial(const TrialSource& src) {
     }
   }
 
-  if (!have_c3d && src.knee_forces_grf_scale > 0) {
+  if (!have_c3d && have_forces && src.knee_forces_grf_scale > 0) {
     std::vector<double> grf = interpolate(kf.time, kf.grfz, t, half);
     bool finite = true;
     for (double& x : grf) {
@@ -480,6 +498,8 @@ GapTrial assembleTrial(const TrialSource& src) {
     mids = findCrossings(t, f, 20.0, 10.0, false, 0.3);
     g.event_source = "force plates";
   } else if (ev == "force") {
+    if (!have_forces)
+      throw InputError(where, who + ": events from the knee force: expected a knee-force file, got none");
     const std::vector<double> f = lowPass(g.trial.measured_force, rate, std::min(10.0, 0.45 * rate));
     const double p10 = percentileOf(f, 0.1), p90 = percentileOf(f, 0.9), lvl = p10 + 0.4 * (p90 - p10);
     starts = findCrossings(t, f, lvl, 0.15 * (p90 - p10), true, 0.4);
@@ -503,7 +523,9 @@ GapTrial assembleTrial(const TrialSource& src) {
 }
 
 std::vector<std::string> normalizeEmg(std::vector<GapTrial>& trials, const std::vector<std::string>& flexors,
-                                      const std::vector<std::string>& extensors) {
+                                      const std::vector<std::string>& extensors,
+                                      const std::map<std::string, double>* given_peaks,
+                                      std::map<std::string, double>* peaks_used) {
   std::set<std::string> labels, dead;
   for (const auto& g : trials)
     for (const auto& [k, v] : g.trial.channels)
@@ -515,12 +537,20 @@ std::vector<std::string> normalizeEmg(std::vector<GapTrial>& trials, const std::
   std::map<std::string, double> peak;
   for (const auto& lab : labels) {
     if (dead.count(lab)) continue;
+    if (given_peaks) {
+      // A channel the given peaks lack (dead or absent where they were taken) is dropped.
+      auto it = given_peaks->find(lab);
+      if (it != given_peaks->end()) peak[lab] = it->second;
+      else dead.insert(lab);
+      continue;
+    }
     for (const auto& g : trials) {
       auto it = g.trial.channels.find("EMG:" + lab);
       if (it == g.trial.channels.end()) continue;
       for (double x : it->second) peak[lab] = std::max(peak[lab], x);
     }
   }
+  if (peaks_used) *peaks_used = peak;
   for (auto& g : trials) {
     auto& ch = g.trial.channels;
     bool has_emg = false;

@@ -77,7 +77,7 @@ struct GapTrial {
 struct TrialSource {
   std::string name;                ///< E.g. "ngait_og3".
   std::string activity = "gait";
-  std::string knee_forces;         ///< eKnee CSV (PM, AM, AL, PL in lbf; GON).
+  std::string knee_forces;         ///< eKnee CSV (PM, AM, AL, PL in lbf; GON); empty: no measured force.
   std::string contact_area;        ///< The contact-area tool's .sto for this trial.
   std::string c3d;                 ///< Optional: force plates and EMG (and the C3D clock).
   std::string kinematics;          ///< Optional IK motion (.mot) with the flexion column.
@@ -108,7 +108,9 @@ struct TrialSource {
   SourceLocation where;            ///< The setup element, for messages.
 };
 
-/// Reads and aligns one trial's inputs. Throws InputError (at source.where or naming the file) for
+/// Reads and aligns one trial's inputs. Without a knee-force file (source.knee_forces empty) the frames
+/// are the contact-area file's and the measured forces NaN: such a trial can be predicted
+/// (gap/prediction.hpp), not diagnosed. Throws InputError (at source.where or naming the file) for
 /// a missing file or column, areas that are not in m^2 (a peak above 0.1 m^2), sources whose
 /// times do not overlap, or no cycle found. EMG envelopes stay in volts until normalizeEmg.
 GapTrial assembleTrial(const TrialSource& source);
@@ -117,8 +119,13 @@ GapTrial assembleTrial(const TrialSource& source);
 /// channels are 0..1 and comparable between trials), drops channels that are dead in any trial
 /// (raw peak-to-peak below 0.1 V; their labels are returned), and adds EMG:cocontraction =
 /// min(mean flexor envelope, mean extensor envelope) to the trials that have EMG.
+/// With @p given_peaks (label -> envelope peak, in volts) the channels are normalised by those instead
+/// (how a gap model fitted on other trials is applied; channels it lacks are dropped); @p peaks_used,
+/// when given, receives the peaks used.
 std::vector<std::string> normalizeEmg(std::vector<GapTrial>& trials, const std::vector<std::string>& flexors,
-                                      const std::vector<std::string>& extensors);
+                                      const std::vector<std::string>& extensors,
+                                      const std::map<std::string, double>* given_peaks = nullptr,
+                                      std::map<std::string, double>* peaks_used = nullptr);
 
 /// Cycles of a recording from opening events @p starts (s, increasing) and middle events @p mids
 /// (any order, matched to the cycle they fall in) over frames @p time; the frames before the first

@@ -71,8 +71,8 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     ASSERT_GE(o.trace.size(), 2u) << o.case_name << " seed " << o.seed;
     EXPECT_EQ(o.trace.front().rfind("step 1: screened ", 0), 0u) << o.trace.front();
     EXPECT_EQ(o.trace.back().rfind("verdict: " + o.answer, 0), 0u) << o.trace.back();
-    EXPECT_NE(o.trace.back().find(" (remaining structure: sign-flip p "), std::string::npos) << o.trace.back();
-    if (o.answer != "baseline" && o.answer != "none of the candidates") {
+    EXPECT_NE(o.trace.back().find("] (remaining structure: sign-flip p "), std::string::npos) << o.trace.back();
+    if (o.answer != "baseline" && o.answer != "none of the candidates" && o.answer != "undecided") {
       EXPECT_NE(o.trace.front().find(" *" + o.answer + "["), std::string::npos) << o.trace.front();
     }
   }
@@ -88,8 +88,12 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     }
   // What the suite demands, per case, on JW's real inputs at the real noise (README "Blind
   // synthetic suite" has the matrix): at least 18 of 20 seeds name the right answer first: the
-  // effect; the baseline for nothing; the baseline or the effect itself, never another effect, for
-  // an absorbed effect (isRightAnswer); "none" for the outside bump.
+  // effect; the baseline for nothing; the baseline, the effect itself or "undecided", never another
+  // effect nor "none of the candidates", for an absorbed effect (isRightAnswer); "none" (or "partly
+  // explained") for the outside bump. Since issue 17's verdicts (the noise floor must be consistent with
+  // the withheld error for "baseline") absorbed effects come out "undecided" in 1-5 of 20 seeds
+  // (ap_translation 5, the most), where they were "baseline"; nothing injected: 18 baseline, 1
+  // undecided, 1 none (2026-11-24).
   // Absorbed today: ml_compartments, flexion_offset, flexion_gain, ap_translation, and -- since the
   // Hertz modulus may go below 1 MPa -- creep and adhesion_jkr: on these areas (2000-2740 mm^2, a
   // smooth function of the flexion) both change the force nearly in proportion to the Hertz term,

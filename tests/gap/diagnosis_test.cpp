@@ -142,11 +142,13 @@ TEST_F(Diagnosis, BaselineIsPreferredAndTheIsotonicFloorHolds) {
 }
 
 // JW's real contact areas (the paper workflow's, the femur seated by the model: a function of the
-// flexion alone) cannot follow a force that varies from 100 to 1600 N. With only four cycles the
-// sign-flip test has no power, but the systematic gap exceeds the between-cycle repeatability band:
-// the verdict must not be "baseline". The gap follows the external load (the vertical ground
-// reaction force of the instrumented leg and the knee's net axial force that carries it), and the
-// external-load term, driven by it, takes most of the gap.
+// flexion alone) cannot follow a force that varies from 100 to 1600 N. With only four cycles no test of
+// what remains has the power to say so -- the sign-flip test needs six, the mean gap (385 N) is within
+// its own uncertainty (367 N), the model-agnostic check removes a third of the withheld error with a
+// score t of 3.1 where 3 degrees of freedom need 5.4 -- so the verdict is "undecided", with the cycles
+// that would tell, never "baseline". The gap follows the external load (the vertical ground reaction
+// force of the instrumented leg and the knee's net axial force that carries it), and the external-load
+// term, driven by it, takes most of the gap.
 TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const std::vector<GapTrial> trials = test::jwGaitAndStair();
@@ -158,9 +160,15 @@ TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
   std::printf("[ real     ] baseline withheld RMSE %.1f N; systematic gap %.1f N against a band of %.1f N; top "
               "correlation %s r = %.2f\n", b.baseline_rmse_heldout, b.structure.systematic_gap,
               b.structure.repeatability_band, b.correlations[0].signal.c_str(), b.correlations[0].r);
-  EXPECT_EQ(b.verdict, "none of the candidates");
+  EXPECT_EQ(b.verdict_class, "undecided");
+  EXPECT_EQ(b.verdict, "undecided");
   EXPECT_TRUE(std::isnan(b.structure.p_value));  // 4 cycles: too few for the sign-flip test
   EXPECT_TRUE(b.structure.exceeds_band);
+  EXPECT_LT(b.structure.systematic_gap, 2 * b.structure.mean_uncertainty);
+  EXPECT_GT(b.structure.agnostic.reduction, 0.2);
+  EXPECT_FALSE(b.structure.agnostic.significant);
+  EXPECT_GT(b.structure.agnostic.cycles_needed, 6);
+  EXPECT_THAT(b.verdict_text, HasSubstr("cycles would make it significant"));
   EXPECT_GT(b.baseline_rmse_heldout, 400);
   // The external load in either form: the ground reaction or the knee's net axial force from
   // inverse dynamics (the channel that carries the ground reaction to the knee; 0.91 on 2026-11-24).
@@ -215,6 +223,15 @@ TEST_F(Diagnosis, ARivalHeldAtTheBaselineByItsBoundIsNotConfusable) {
 TEST_F(Diagnosis, ACandidateEntersByItsScoreOrAsTheBestWhitenedComparableToTheGate) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   const auto trials = synthetic({{"threshold", {{"dh", -0.0004}}}}, 1);
+  // The figures below are those of the first catalogue's 13 effects (the Bonferroni levels count the
+  // effects screened).
+  const std::vector<Effect> all = catalogue;
+  catalogue.clear();
+  for (const auto& e : all)
+    if (e.getName() != "hysteresis" && e.getName() != "load_flexion" && e.getName() != "grf_left" &&
+        e.getName() != "grf_shear" && e.getName() != "trial_drift")
+      catalogue.push_back(e);
+  ASSERT_EQ(catalogue.size(), 13u);
   DiagnosisOptions o = options();
   o.where = false;
   o.shrinkage = false;

@@ -103,6 +103,9 @@ TEST(Synth, AnAbsorbedEffectMayBeNamedButNoOtherEffect) {
   EXPECT_TRUE(isRightAnswer("flexion_gain", "baseline", gain));
   EXPECT_FALSE(isRightAnswer("threshold", "baseline", gain));
   EXPECT_FALSE(isRightAnswer("none of the candidates", "baseline", gain));
+  EXPECT_TRUE(isRightAnswer("undecided", "baseline", gain));
+  EXPECT_FALSE(isRightAnswer("undecided", "baseline", {}));
+  EXPECT_FALSE(isRightAnswer("undecided", "threshold", {{"threshold", {{"dh", -0.0015}}}}));
   EXPECT_TRUE(isRightAnswer("baseline", "baseline", {}));
   EXPECT_FALSE(isRightAnswer("flexion_gain", "baseline", {}));
   EXPECT_TRUE(isRightAnswer("none of the candidates", "none of the candidates", {}));

@@ -10,6 +10,7 @@
 
 #include "core/strings.hpp"
 #include "gap/jw_sources.hpp"
+#include "io/storage.hpp"
 
 namespace kneesim::gap {
 namespace {
@@ -160,6 +161,40 @@ TEST(GapTool, RunsEndToEndAndWritesTheReport) {
   EXPECT_THAT(md, HasSubstr("Prewhitening filter: AR("));
   EXPECT_THAT(md, HasSubstr("| cross-fitted score t (needed) |"));
   EXPECT_EQ(r.report.targets.size(), 2u);
+
+  // kneesim gap --predict: gap_model.json applied to the trials, one of them without knee forces. The
+  // prediction reads no force: the stair trial's is the same with and without its forces; where the
+  // forces are there, the selected law fitted on all cycles misses them by less than the baseline's
+  // withheld error.
+  ASSERT_TRUE(std::filesystem::exists(dir + "/out/gap_model.json"));
+  GapSetup ps = s;
+  ps.results_directory = dir + "/predicted";
+  const PredictRunResult with = runPredict(ps, dir + "/out/gap_model.json");
+  ps.trials[1].knee_forces.clear();
+  const PredictRunResult without = runPredict(ps, dir + "/out/gap_model.json");
+  ASSERT_EQ(without.predictions.size(), 2u);
+  EXPECT_EQ(without.model.targets.size(), 2u);
+  EXPECT_EQ(without.model.targets[0].effects, r.report.targets[0].selected);
+  // Without forces the frames are the contact-area file's, with them the CSV's: compared where both have a frame.
+  const TrialPrediction &a = without.predictions[1], &b = with.predictions[1];
+  int same = 0;
+  for (size_t i = 0, k = 0; i < a.time.size(); ++i) {
+    while (k < b.time.size() && b.time[k] < a.time[i] - 1e-6) ++k;
+    if (k < b.time.size() && std::abs(b.time[k] - a.time[i]) < 1e-6) {
+      EXPECT_NEAR(a.predicted.at("total")[i], b.predicted.at("total")[k], 1e-3) << a.time[i];
+      ++same;
+    }
+  }
+  EXPECT_GT(same, 500);
+  EXPECT_TRUE(without.predictions[1].rmse.empty());
+  EXPECT_LT(without.predictions[0].rmse.at("total"), r.report.targets[0].baseline_rmse_heldout);
+  const io::Storage sto = io::readStorage(dir + "/predicted/stairupf1_predicted.sto");
+  EXPECT_THAT(sto.labels, ::testing::ElementsAre("time", "cycle_phase", "medial", "total"));
+  ASSERT_EQ(sto.data.rows(), static_cast<Eigen::Index>(without.predictions[1].time.size()));
+  EXPECT_NEAR(sto.data(10, 3), without.predictions[1].predicted.at("total")[10], 1e-6 * std::abs(sto.data(10, 3)) + 1e-9);
+  const io::Storage gait = io::readStorage(dir + "/predicted/ngait_og3_predicted.sto");
+  EXPECT_THAT(gait.labels, ::testing::ElementsAre("time", "cycle_phase", "medial", "medial_measured", "total",
+                                                  "total_measured"));
 }
 
 }  // namespace

@@ -31,6 +31,9 @@ void addGapCommands(CLI::App& app, GapCommandState& s) {
       ->delimiter(',');
   s.gap->add_option("--trials", s.trials, "Comma-separated trial names of the setup to use (default: all)");
   s.gap->add_flag("--no-plots", s.no_plots, "Do not run gnuplot");
+  s.gap->add_option("--predict", s.predict,
+                    "Apply a diagnosis's gap_model.json to the setup's trials (knee forces not needed) and write "
+                    "<trial>_predicted.sto (total, medial, lateral) instead of diagnosing");
 
   s.synth = app.add_subcommand(
       "synth", "Synthetic trials with hidden effects from a GapTool setup's inputs, diagnosed blind");
@@ -219,6 +222,13 @@ void runGapCommand(const GapCommandState& st, bool quiet) {
   if (!st.workflow_results.empty()) gap::setWorkflowResults(setup, st.workflow_results);
   if (!st.areas.empty()) gap::setContactAreaDirectory(setup, st.areas);
   if (!st.output.empty()) setup.results_directory = st.output;
+  if (!st.predict.empty()) {
+    const gap::PredictRunResult p = gap::runPredict(setup, st.predict, [&](const std::string& m) {
+      if (!quiet) std::cerr << m << "\n";
+    });
+    if (!quiet) gap::printPredictSummary(p, std::cout);
+    return;
+  }
   if (!st.targets.empty()) setup.options.targets = st.targets;
   if (st.no_plots) setup.report.plots = false;
   const gap::GapRunResult r = gap::runGap(setup, [&](const std::string& m) {

@@ -12,7 +12,7 @@ namespace kneesim::cli {
 struct GapCommandState {
   CLI::App* gap = nullptr;
   CLI::App* synth = nullptr;
-  std::string setup, areas, output, trials, outside;
+  std::string setup, areas, output, trials, outside, predict;
   std::vector<std::string> effects, targets;
   bool no_plots = false, blind_suite = false, details = false;
   std::string workflow_results;
