@@ -231,13 +231,20 @@ def main():
     work = a.work or tempfile.mkdtemp(prefix="gap_stress_")
     jobs = [(c, s) for c in cases for s in range(a.first_seed, a.first_seed + a.seeds)]
     outcomes = []
+    # Each outcome is appended to --outcomes as it arrives, so an interrupted matrix keeps what it ran.
+    sink = open(a.outcomes, "w") if a.outcomes else None
     with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as ex:
         futs = [ex.submit(run_one, a.kneesim, sources, k, c, s, work, a.areas, a.data, a.setup) for c, s in jobs]
         for f in concurrent.futures.as_completed(futs):
             o = f.result()
             outcomes.append(o)
+            if sink:
+                sink.write(json.dumps(o) + "\n")
+                sink.flush()
             if "error" in o:
                 print("[ error ] %s seed %d: %s" % (o["case"], o["seed"], o["error"]), flush=True)
+    if sink:
+        sink.close()
     outcomes.sort(key=lambda o: (names.index(o["case"]), o["seed"]))
     if not a.work:
         shutil.rmtree(work, ignore_errors=True)
@@ -259,10 +266,6 @@ def main():
     if a.matrix:
         with open(a.matrix, "w") as f:
             f.write(text + "\n")
-    if a.outcomes:
-        with open(a.outcomes, "w") as f:
-            for o in outcomes:
-                f.write(json.dumps(o) + "\n")
     failed = [d for d in demands if not d[3]]
     for name, right, n, ok in demands:
         print("[ %s ] %s: %d/%d right (demand >= 90 %%)" % ("ok" if ok else "FAIL", name, right, n))
