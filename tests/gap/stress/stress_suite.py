@@ -133,6 +133,8 @@ def run_one(kneesim, sources, k, case, seed, work, areas, data, template):
         "rmse_selected": t["shrinkage"][0]["rmse_final_N"] if t.get("shrinkage") else float("nan"),
         "noise_floor": nf.get("floor_N") if nf.get("floor_N") is not None else float("nan"),
         "agnostic": bool(ag.get("significant", False)), "evidence": rs.get("evidence", []),
+        "floor_consistent": bool(nf.get("consistent", False)), "floor_above": bool(nf.get("above", False)),
+        "excess_share": nf.get("excess_share"), "excess_share_upper": nf.get("excess_share_upper"),
         "carriers": [i["signal"] for i in ag.get("importance", [])[:3]] if ag.get("significant") else [],
     }
     shutil.rmtree(d, ignore_errors=True)
@@ -229,7 +231,8 @@ def main():
     names = [n for n in a.cases.split(",") if n] or list(G.CASES)
     cases = [G.resolve_case(sources, k, n) for n in names]
     work = a.work or tempfile.mkdtemp(prefix="gap_stress_")
-    jobs = [(c, s) for c in cases for s in range(a.first_seed, a.first_seed + a.seeds)]
+    # Seed-major: an interrupted matrix has every case at the seeds it reached.
+    jobs = [(c, s) for s in range(a.first_seed, a.first_seed + a.seeds) for c in cases]
     outcomes = []
     # Each outcome is appended to --outcomes as it arrives, so an interrupted matrix keeps what it ran.
     sink = open(a.outcomes, "w") if a.outcomes else None
