@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "gap/catalogue_fixture.hpp"
 #include "gap/jw_sources.hpp"
 #include "gap/synth.hpp"
 #include "io/knee_forces.hpp"
@@ -18,14 +19,8 @@ namespace {
 using kneesim::test::inputErrorOf;
 using ::testing::HasSubstr;
 
-class Diagnosis : public ::testing::Test {
+class Diagnosis : public test::CatalogueFixture {
  protected:
-  void SetUp() override {
-    reg.loadPlugin("hertz");
-    reg.loadPlugin("gap_effects");
-    for (const auto& n : reg.getEffectNames()) catalogue.push_back(Effect::fromRegistry(reg, n));
-  }
-  identify::ContactLaw hertz() const { return identify::ContactLaw::fromRegistry(reg, "hertz"); }
   DiagnosisOptions options() const {
     DiagnosisOptions o;
     o.fit.free_parameters = {"E", "nu"};
@@ -46,8 +41,6 @@ class Diagnosis : public ::testing::Test {
     so.seed = seed;
     return makeSyntheticTrials(hertz(), catalogue, test::jwGaitAndStair(), so);
   }
-  plugin::Registry reg;
-  std::vector<Effect> catalogue;
 };
 
 // A 140 ms lag of the load cells (on JW's real areas the predicted force changes slowly: a 30 ms lag

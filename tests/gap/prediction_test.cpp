@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "gap/catalogue_fixture.hpp"
 #include "gap/jw_sources.hpp"
 #include "gap/synth.hpp"
 #include "plugin/registry.hpp"
@@ -24,14 +25,8 @@ namespace {
 using kneesim::test::inputErrorOf;
 using ::testing::HasSubstr;
 
-class Prediction : public ::testing::Test {
+class Prediction : public test::CatalogueFixture {
  protected:
-  void SetUp() override {
-    reg.loadPlugin("hertz");
-    reg.loadPlugin("gap_effects");
-    for (const auto& n : reg.getEffectNames()) catalogue.push_back(Effect::fromRegistry(reg, n));
-  }
-  identify::ContactLaw hertz() const { return identify::ContactLaw::fromRegistry(reg, "hertz"); }
   std::vector<GapTrial> synthetic(unsigned long long seed, int replicates) const {
     SynthOptions so;
     so.base_values = {{"E", 2.5e6 * (1 - 0.45 * 0.45)}};
@@ -47,8 +42,6 @@ class Prediction : public ::testing::Test {
     std::ofstream(p) << text;
     return p;
   }
-  plugin::Registry reg;
-  std::vector<Effect> catalogue;
 };
 
 double rms(const std::vector<double>& a, const std::vector<double>& b) {
