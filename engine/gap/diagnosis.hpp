@@ -308,7 +308,8 @@ struct TargetDiagnosis {
   StructureTest structure;
   /// One of four verdicts, never more confident than the evidence: "explained" (the selected effects,
   /// nothing significant left, the withheld error consistent with the noise floor), "partly explained"
-  /// (selected effects, but structure remains), "not explained" (nothing selected, structure remains:
+  /// (selected effects, but structure remains, or the withheld error above the floor: significantly, or by at
+  /// least min_relative_improvement of its mean square without being shown consistent with it), "not explained" (nothing selected, structure remains:
   /// none of the candidates), "undecided" (nothing selected or left significant, but the withheld error
   /// cannot be told from the noise floor's tolerance: more cycles needed); and "baseline" (nothing
   /// selected, nothing left, the withheld error consistent with the noise floor).
