@@ -139,6 +139,14 @@ Node requireSetupElement(const Document& doc, const char* tag) {
   return el;
 }
 
+SetupFile openSetupFile(const std::string& path, const char* tag) {
+  SetupFile f;
+  f.doc = Document::load(path);
+  f.dir = std::filesystem::path(path).parent_path().string();
+  f.tool = requireSetupElement(*f.doc, tag);
+  return f;
+}
+
 void checkChildren(const Node& node, const std::set<std::string>& known) {
   for (const Node& c : node.children())
     if (!known.count(c.name())) {

@@ -107,6 +107,17 @@ class Document {
 /// <OpenSimDocument>). Throws InputError at the root when neither is there.
 Node requireSetupElement(const Document& doc, const char* tag);
 
+/// A setup file opened for reading: its document, its folder (relative paths in it start there)
+/// and its tool element (requireSetupElement).
+struct SetupFile {
+  std::unique_ptr<Document> doc;
+  std::string dir;
+  Node tool;
+};
+
+/// Loads the setup file @p path and finds its element @p tag (requireSetupElement).
+SetupFile openSetupFile(const std::string& path, const char* tag);
+
 /// Throws InputError at the first child of @p node whose tag is not in @p known, listing them.
 void checkChildren(const Node& node, const std::set<std::string>& known);
 

@@ -367,11 +367,11 @@ ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const Impla
 }
 
 ContactAreaSetup readContactAreaSetup(const std::string& path) {
-  auto doc = xml::Document::load(path);
+  const xml::SetupFile file = xml::openSetupFile(path, "ContactAreaTool");
+  const std::string& dir = file.dir;
+  const xml::Node& tool = file.tool;
   ContactAreaSetup s;
   s.setup_file = path;
-  const std::string dir = fs::path(path).parent_path().string();
-  const xml::Node tool = xml::requireSetupElement(*doc, "ContactAreaTool");
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
   xml::checkChildren(tool, {"femoral_component_file", "insert_file", "mesh_scale", "threshold", "extra_thresholds",
                        "area_rule", "distance_provider", "plugins", "insert_directions", "femur_directions",
@@ -399,11 +399,7 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
     if (!(a > 0 && a < 90)) n.fail("expected an angle between 0 and 90 degrees, got " + n.text());
     s.options.max_normal_angle = a * kDegree;
   }
-  s.distance_provider = tool.childText("distance_provider", "fcl");
-  if (xml::Node n = tool.child("plugins"))
-    for (const std::string_view w : splitWhitespace(n.text())) s.plugins.emplace_back(w);
-  else if (startsWith(s.distance_provider, "fcl"))
-    s.plugins.push_back("distance_fcl");
+  readDistanceProvider(tool, s);
 
   const xml::Node hinge = tool.child("HingeKinematics"), model = tool.child("ModelKinematics");
   if (bool(hinge) == bool(model))
@@ -435,6 +431,14 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
   s.vtp_femur = tool.childBool("vtp_femur", true);
   if (xml::Node n = tool.child("hinge_file")) s.hinge_file = xml::resolvePath(s.results_directory, n.text());
   return s;
+}
+
+void readDistanceProvider(const xml::Node& tool, ContactAreaSetup& s) {
+  s.distance_provider = tool.childText("distance_provider", "fcl");
+  if (xml::Node n = tool.child("plugins"))
+    s.plugins = n.toWords();
+  else if (startsWith(s.distance_provider, "fcl"))
+    s.plugins.push_back("distance_fcl");
 }
 
 ImplantMeshes readImplantMeshes(const ContactAreaSetup& setup) {

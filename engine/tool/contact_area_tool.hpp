@@ -35,6 +35,10 @@
 #include "model/model.hpp"
 #include "plugin/registry.hpp"
 
+namespace kneesim::xml {
+class Node;
+}  // namespace kneesim::xml
+
 namespace kneesim::tool {
 
 /// Where the flexion angles of the hinge kinematics come from.
@@ -99,6 +103,11 @@ struct ContactAreaSetup {
 /// Throws InputError with file, line and element for unknown elements, bad values, a missing or
 /// doubled kinematics source.
 ContactAreaSetup readContactAreaSetup(const std::string& path);
+
+/// Reads <distance_provider> (default "fcl") and <plugins> of a setup element @p tool into @p s;
+/// without <plugins>, an FCL provider loads the distance_fcl plugin. Shared by the setups that
+/// describe a contact-area calculation (ContactAreaTool, KneeContactWorkflow).
+void readDistanceProvider(const xml::Node& tool, ContactAreaSetup& s);
 
 /// The two components, read as the setup says (closed meshes required, size checked).
 struct ImplantMeshes {

@@ -165,11 +165,11 @@ void readTrials(const xml::Node& tool, const std::string& dir, WorkflowSetup& s)
 }  // namespace
 
 WorkflowSetup readWorkflowSetup(const std::string& path) {
-  auto doc = xml::Document::load(path);
+  const xml::SetupFile file = xml::openSetupFile(path, "KneeContactWorkflow");
+  const std::string& dir = file.dir;
+  const xml::Node& tool = file.tool;
   WorkflowSetup s;
   s.setup_file = path;
-  const std::string dir = fs::path(path).parent_path().string();
-  const xml::Node tool = xml::requireSetupElement(*doc, "KneeContactWorkflow");
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
   xml::checkChildren(tool, {"model_file", "femoral_component_file", "insert_file", "mesh_scale", "femoral_body",
                        "insert_body", "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule",
@@ -199,11 +199,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
       c.options.extra_thresholds.push_back(t);
     }
   if (xml::Node n = tool.child("area_rule")) c.options.rule = contact::parseAreaRule(n.text(), n.where());
-  c.distance_provider = tool.childText("distance_provider", "fcl");
-  if (xml::Node n = tool.child("plugins"))
-    c.plugins = n.toWords();
-  else if (startsWith(c.distance_provider, "fcl"))
-    c.plugins.push_back("distance_fcl");
+  readDistanceProvider(tool, c);
   s.kinematics = tool.childText("kinematics", "model");
   if (s.kinematics != "model" && s.kinematics != "hinge")
     tool.child("kinematics").fail("expected 'model' or 'hinge', got '" + s.kinematics + "'");
