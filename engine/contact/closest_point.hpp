@@ -1,6 +1,9 @@
 #pragma once
-// Closest point of a triangle to a point, header-only so the engine's MeshDistance and the
-// distance_fcl plugin (built as its own shared library) inline the same routine in their hot loops.
+// Closest point of a triangle to a point, and the nearer-child-first step of a tree search for it:
+// header-only so the engine's MeshDistance and the distance_fcl plugin (built as its own shared
+// library) inline the same routines in their hot loops.
+
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -52,6 +55,20 @@ inline Eigen::Vector3d calcClosestOnTriangle(const Eigen::Vector3d& p, const Eig
   const double denom = 1.0 / (va + vb + vc);
   feature = TriangleFeature::kFace;
   return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+/// One step of a depth-first search for the nearest triangle in a bounding-volume tree: pushes the
+/// children @p a and @p b of a node, whose lower bounds on the distance are @p da and @p db, when
+/// they can still beat @p best, the nearer one last so that it is visited first and the bound
+/// tightens early (on a tie, @p a). The stack must have room for two more entries.
+template <class Bound>
+inline void pushNearerLast(int* stack, int& top, int a, Bound da, int b, Bound db, double best) {
+  if (da > db) {
+    std::swap(a, b);
+    std::swap(da, db);
+  }
+  if (db < best) stack[top++] = b;
+  if (da < best) stack[top++] = a;
 }
 
 }  // namespace kneesim::contact

@@ -170,17 +170,10 @@ bool MeshDistance::calcSignedDistance(const Vector3d& p, double max_distance, Me
       }
       continue;
     }
-    // Visit the nearer child first so the bound tightens early.
     const int l = node.first, r = node.right;
     const double dl = boxDistanceSquared(nodes_[l].box, p), dr = boxDistanceSquared(nodes_[r].box, p);
     KNEESIM_CHECK(top + 2 <= kStackSize, "mesh distance tree deeper than its traversal stack");
-    if (dl <= dr) {
-      if (dr < best2) stack[top++] = r;
-      if (dl < best2) stack[top++] = l;
-    } else {
-      if (dl < best2) stack[top++] = l;
-      if (dr < best2) stack[top++] = r;
-    }
+    pushNearerLast(stack, top, l, dl, r, dr, best2);
   }
   if (best_tri < 0) {
     out = MeshDistanceQuery{};

@@ -139,11 +139,12 @@ Node requireSetupElement(const Document& doc, const char* tag) {
   return el;
 }
 
-SetupFile openSetupFile(const std::string& path, const char* tag) {
+SetupFile openSetupFile(const std::string& path, const char* tag, const std::set<std::string>& known) {
   SetupFile f;
   f.doc = Document::load(path);
   f.dir = std::filesystem::path(path).parent_path().string();
   f.tool = requireSetupElement(*f.doc, tag);
+  checkChildren(f.tool, known);
   return f;
 }
 

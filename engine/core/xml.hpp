@@ -108,15 +108,16 @@ class Document {
 Node requireSetupElement(const Document& doc, const char* tag);
 
 /// A setup file opened for reading: its document, its folder (relative paths in it start there)
-/// and its tool element (requireSetupElement).
+/// and its tool element (requireSetupElement). `tool` points into `doc`: keep them together.
 struct SetupFile {
   std::unique_ptr<Document> doc;
   std::string dir;
   Node tool;
 };
 
-/// Loads the setup file @p path and finds its element @p tag (requireSetupElement).
-SetupFile openSetupFile(const std::string& path, const char* tag);
+/// Loads the setup file @p path, finds its element @p tag (requireSetupElement) and checks that
+/// every child of it is in @p known (checkChildren). Throws InputError otherwise.
+SetupFile openSetupFile(const std::string& path, const char* tag, const std::set<std::string>& known);
 
 /// Throws InputError at the first child of @p node whose tag is not in @p known, listing them.
 void checkChildren(const Node& node, const std::set<std::string>& known);

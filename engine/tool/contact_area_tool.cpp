@@ -367,16 +367,15 @@ ContactKinematics calcHingeKinematics(const ContactAreaSetup& setup, const Impla
 }
 
 ContactAreaSetup readContactAreaSetup(const std::string& path) {
-  const xml::SetupFile file = xml::openSetupFile(path, "ContactAreaTool");
-  const std::string& dir = file.dir;
-  const xml::Node& tool = file.tool;
+  const auto [doc, dir, tool] = xml::openSetupFile(
+      path, "ContactAreaTool",
+      {"femoral_component_file", "insert_file", "mesh_scale", "threshold", "extra_thresholds", "area_rule",
+       "distance_provider", "plugins", "insert_directions", "femur_directions", "max_normal_angle_deg",
+       "HingeKinematics", "ModelKinematics", "time_range", "results_directory", "output_file", "write_vtp",
+       "vtp_every", "vtp_femur", "hinge_file"});
   ContactAreaSetup s;
   s.setup_file = path;
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
-  xml::checkChildren(tool, {"femoral_component_file", "insert_file", "mesh_scale", "threshold", "extra_thresholds",
-                       "area_rule", "distance_provider", "plugins", "insert_directions", "femur_directions",
-                       "max_normal_angle_deg", "HingeKinematics", "ModelKinematics", "time_range",
-                       "results_directory", "output_file", "write_vtp", "vtp_every", "vtp_femur", "hinge_file"});
   s.femur_file = xml::resolvePath(dir, tool.requireChild("femoral_component_file").text());
   s.insert_file = xml::resolvePath(dir, tool.requireChild("insert_file").text());
   if (s.femur_file.empty() || s.insert_file.empty()) tool.fail("expected femoral_component_file and insert_file");

@@ -165,18 +165,16 @@ void readTrials(const xml::Node& tool, const std::string& dir, WorkflowSetup& s)
 }  // namespace
 
 WorkflowSetup readWorkflowSetup(const std::string& path) {
-  const xml::SetupFile file = xml::openSetupFile(path, "KneeContactWorkflow");
-  const std::string& dir = file.dir;
-  const xml::Node& tool = file.tool;
+  const auto [doc, dir, tool] = xml::openSetupFile(
+      path, "KneeContactWorkflow",
+      {"model_file", "femoral_component_file", "insert_file", "mesh_scale", "femoral_body", "insert_body",
+       "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule", "distance_provider", "plugins",
+       "kinematics", "flexion_coordinate", "seating_grid_deg", "body_mass", "Trial", "ContactLaw",
+       "threshold_sensitivity", "agreement_fraction", "results_directory", "plots", "gnuplot", "plot_scripts",
+       "threads", "area_derivatives", "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file", "timings"});
   WorkflowSetup s;
   s.setup_file = path;
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
-  xml::checkChildren(tool, {"model_file", "femoral_component_file", "insert_file", "mesh_scale", "femoral_body",
-                       "insert_body", "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule",
-                       "distance_provider", "plugins", "kinematics", "flexion_coordinate", "seating_grid_deg",
-                       "body_mass", "Trial", "ContactLaw", "threshold_sensitivity", "agreement_fraction",
-                       "results_directory", "plots", "gnuplot", "plot_scripts", "threads", "area_derivatives",
-                       "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file", "timings"});
   s.fit.where = tool.where();
   s.model_file = xml::resolvePath(dir, tool.requireChild("model_file").text());
   ContactAreaSetup& c = s.contact;

@@ -214,14 +214,7 @@ void Target::searchSubtree(int root, const Vec3& p, const Eigen::Vector3f& pf, d
     }
     const int a = nd.child, b = nd.child + 1;
     const float da = lowerBound(nodes_[size_t(a)], pf), db = lowerBound(nodes_[size_t(b)], pf);
-    // Visit the nearer child first (pushed last) so the bound tightens early.
-    if (da <= db) {
-      if (db < best) stack[top++] = b;
-      if (da < best) stack[top++] = a;
-    } else {
-      if (da < best) stack[top++] = a;
-      if (db < best) stack[top++] = b;
-    }
+    kneesim::contact::pushNearerLast(stack, top, a, da, b, db, best);
   }
 }
 

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
+#include "support/test_data.hpp"
+
 namespace kneesim::xml {
 namespace {
 
@@ -60,6 +65,24 @@ TEST(Xml, CheckChildrenNamesTheUnknownElementAndTheKnownOnes) {
   } catch (const InputError& e) {
     EXPECT_STREQ(e.what(), "c.xml:4: T/c: unknown element <c> in <T> (expected one of a, b)");
   }
+}
+
+TEST(Xml, OpenSetupFileGivesItsFolderAndToolAndChecksTheChildren) {
+  const std::string dir = test::scratchDir("xml_open_setup");
+  const std::string path = dir + "/setup.xml";
+  std::ofstream(path) << "<OpenSimDocument>\n <MyTool name=\"t\">\n  <a>1</a>\n  <z/>\n </MyTool>\n</OpenSimDocument>\n";
+  const SetupFile f = openSetupFile(path, "MyTool", {"a", "z"});
+  EXPECT_EQ(std::filesystem::path(f.dir), std::filesystem::path(dir));
+  EXPECT_EQ(f.tool.nameAttr(), "t");
+  EXPECT_EQ(f.tool.line(), 2);
+  EXPECT_EQ(f.tool.child("a").toDouble(), 1.0);
+  try {
+    openSetupFile(path, "MyTool", {"a"});
+    FAIL() << "no throw";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":4: OpenSimDocument/MyTool[t]/z: unknown element <z> in <MyTool> (expected one of a)");
+  }
+  EXPECT_THROW(openSetupFile(dir + "/missing.xml", "MyTool", {}), InputError);
 }
 
 TEST(Xml, EscapeWritesTheFiveEntitiesAndParsesBack) {
