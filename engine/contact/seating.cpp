@@ -312,6 +312,87 @@ struct Solve {
     dy = -(J.inverse() * Ju);
     return dy.row(0).transpose();
   }
+
+  // The lowest-potential search over the position variables from a seated q (both gaps closed):
+  // quasi-Newton (BFGS on the seated height) with a backtracking line search, each trial position
+  // re-seated by solveInner. Moves q and counts its accepted steps in outer_iterations; returns
+  // whether the search settled (no descent left) rather than ran out of iterations.
+  bool descend(SeatingCoordinates& q, int& outer_iterations) {
+    bool settled = false;
+    const int nv = opt.free_internal_rotation ? 3 : 2;
+    MatU Binv = 0.01 * MatU::Identity(nv, nv);
+    VecU u = getVariables(q, nv);
+    double h = superior.dot(q.p_IH);
+    VecU g = calcGradient(q, nv);
+    double max_step = 4e-3;
+    for (; outer_iterations < opt.max_outer_iterations;) {
+      if (g.cwiseAbs().maxCoeff() == 0) {
+        settled = true;  // flat: the height does not depend on the position
+        break;
+      }
+      VecU p = -Binv * g;
+      if (p.dot(g) >= 0) {
+        Binv = 0.01 * MatU::Identity(nv, nv);
+        p = -Binv * g;
+      }
+      // Trust region: at most 4 mm, and at most 4 times the last accepted step, so a curvature
+      // estimate spoilt by a kink of the faceted surfaces cannot throw the femur across the dish.
+      p /= std::max(1.0, p.cwiseAbs().maxCoeff() / max_step);
+      // Predicted descent below the height resolution: the position is as low as it gets.
+      if (-g.dot(p) < 1e-2 * opt.tolerance) {
+        settled = true;
+        break;
+      }
+      bool accepted = false, linear = false;
+      double alpha = 1;
+      SeatingCoordinates qt;
+      for (int ls = 0; alpha * p.cwiseAbs().maxCoeff() >= opt.position_tolerance; ++ls, alpha /= 2) {
+        qt = q;
+        setVariables(qt, u + alpha * p);
+        // First-order prediction of (h, phi) at the trial position.
+        const Vector2d dy_t = alpha * (dy * p);
+        qt.p_IH += dy_t[0] * superior;
+        qt.varus += dy_t[1];
+        if (!solveInner(qt, 3e-3 + 4 * alpha * p.cwiseAbs().maxCoeff())) continue;
+        const double ht = superior.dot(qt.p_IH);
+        if (ht < h + 1e-4 * alpha * g.dot(p)) {
+          accepted = true;
+          linear = alpha == 1 && h - ht >= -0.9 * g.dot(p);
+          break;
+        }
+      }
+      if (!accepted) {
+        settled = true;  // no descent left within the gaps' resolution
+        break;
+      }
+      ++outer_iterations;
+      const VecU s = alpha * p;
+      max_step = std::min(4e-3, 4 * s.cwiseAbs().maxCoeff());
+      u += s;
+      q = qt;
+      h = superior.dot(q.p_IH);
+      const VecU g_new = calcGradient(q, nv);
+      const VecU y = g_new - g;
+      const double sy = s.dot(y);
+      if (alpha < 0.1) {
+        Binv = 0.01 * MatU::Identity(nv, nv);  // the model was poor: restart from steepest descent
+      } else if (sy > 1e-12 * s.norm() * y.norm()) {
+        // BFGS update of the inverse Hessian.
+        const MatU I = MatU::Identity(nv, nv);
+        const double rho = 1 / sy;
+        Binv = (I - rho * s * y.transpose()) * Binv * (I - rho * y * s.transpose()) + rho * s * s.transpose();
+      }
+      // The height fell as predicted by its slope alone (the dish bottoms are faceted, so the
+      // height is piecewise nearly linear): take longer steps.
+      if (linear) Binv *= 2;
+      g = g_new;
+      if (s.cwiseAbs().maxCoeff() < opt.position_tolerance) {
+        settled = true;
+        break;
+      }
+    }
+    return settled;
+  }
 };
 
 }  // namespace
@@ -336,82 +417,8 @@ SeatingResult Seater::calcSeating(double flexion, const SeatingCoordinates* star
     q.p_IH += (m.insert_top - low + 1e-3) * solve.superior;
   }
 
-  bool ok = solve.solveInner(q);
-  bool settled = false;
-  if (ok) {
-    const int nv = options_.free_internal_rotation ? 3 : 2;
-    MatU Binv = 0.01 * MatU::Identity(nv, nv);
-    VecU u = solve.getVariables(q, nv);
-    double h = solve.superior.dot(q.p_IH);
-    VecU g = solve.calcGradient(q, nv);
-    double max_step = 4e-3;
-    for (; res.outer_iterations < options_.max_outer_iterations;) {
-      if (g.cwiseAbs().maxCoeff() == 0) {
-        settled = true;  // flat: the height does not depend on the position
-        break;
-      }
-      VecU p = -Binv * g;
-      if (p.dot(g) >= 0) {
-        Binv = 0.01 * MatU::Identity(nv, nv);
-        p = -Binv * g;
-      }
-      // Trust region: at most 4 mm, and at most 4 times the last accepted step, so a curvature
-      // estimate spoilt by a kink of the faceted surfaces cannot throw the femur across the dish.
-      p /= std::max(1.0, p.cwiseAbs().maxCoeff() / max_step);
-      // Predicted descent below the height resolution: the position is as low as it gets.
-      if (-g.dot(p) < 1e-2 * options_.tolerance) {
-        settled = true;
-        break;
-      }
-      bool accepted = false, linear = false;
-      double alpha = 1;
-      SeatingCoordinates qt;
-      for (int ls = 0; alpha * p.cwiseAbs().maxCoeff() >= options_.position_tolerance; ++ls, alpha /= 2) {
-        qt = q;
-        solve.setVariables(qt, u + alpha * p);
-        // First-order prediction of (h, phi) at the trial position.
-        const Vector2d dy = alpha * (solve.dy * p);
-        qt.p_IH += dy[0] * solve.superior;
-        qt.varus += dy[1];
-        if (!solve.solveInner(qt, 3e-3 + 4 * alpha * p.cwiseAbs().maxCoeff())) continue;
-        const double ht = solve.superior.dot(qt.p_IH);
-        if (ht < h + 1e-4 * alpha * g.dot(p)) {
-          accepted = true;
-          linear = alpha == 1 && h - ht >= -0.9 * g.dot(p);
-          break;
-        }
-      }
-      if (!accepted) {
-        settled = true;  // no descent left within the gaps' resolution
-        break;
-      }
-      ++res.outer_iterations;
-      const VecU s = alpha * p;
-      max_step = std::min(4e-3, 4 * s.cwiseAbs().maxCoeff());
-      u += s;
-      q = qt;
-      h = solve.superior.dot(q.p_IH);
-      const VecU g_new = solve.calcGradient(q, nv);
-      const VecU y = g_new - g;
-      const double sy = s.dot(y);
-      if (alpha < 0.1) {
-        Binv = 0.01 * MatU::Identity(nv, nv);  // the model was poor: restart from steepest descent
-      } else if (sy > 1e-12 * s.norm() * y.norm()) {
-        // BFGS update of the inverse Hessian.
-        const MatU I = MatU::Identity(nv, nv);
-        const double rho = 1 / sy;
-        Binv = (I - rho * s * y.transpose()) * Binv * (I - rho * y * s.transpose()) + rho * s * s.transpose();
-      }
-      // The height fell as predicted by its slope alone (the dish bottoms are faceted, so the
-      // height is piecewise nearly linear): take longer steps.
-      if (linear) Binv *= 2;
-      g = g_new;
-      if (s.cwiseAbs().maxCoeff() < options_.position_tolerance) {
-        settled = true;
-        break;
-      }
-    }
-  }
+  const bool ok = solve.solveInner(q);
+  const bool settled = ok && solve.descend(q, res.outer_iterations);
 
   res.q = q;
   res.X_IF = calcPose(flexion, q);
