@@ -270,6 +270,10 @@ void ExactMap::computeFast(const Eigen::Matrix3d& R, const Vec3& t, double max_d
     pending_cluster.resize(first);
   }
 
+  queryPendingPoints(max_distance, search, distance, closest_T);
+}
+
+void ExactMap::queryPendingPoints(double max_distance, double search, double* distance, double* closest_T) {
   // Point queries, pruned by the previous closest triangle or the search band; in packets of
   // neighbouring points (the pending list follows the clusters' spatial order).
   const int n = int(pending.size());

@@ -116,6 +116,9 @@ struct ExactMap : ProviderContext {
   void buildClusters(int begin, int end);
   void computeNaive(const Eigen::Matrix3d& R, const Vec3& t, double max_distance, double* distance, double* closest_T);
   void computeFast(const Eigen::Matrix3d& R, const Vec3& t, double max_distance, double* distance, double* closest_T);
+  // computeFast's last pass: the points no cluster test settled (pending), each by a query pruned by
+  // its previous closest triangle or the search band, in packets of neighbouring points.
+  void queryPendingPoints(double max_distance, double search, double* distance, double* closest_T);
   void store(int i, const Vec3& p, double d, int t, const Vec3& q, double max_distance, double* distance,
              double* closest_T);
   void storeFar(int i, const Vec3& p, double lower, signed char side, double* distance, double* closest_T);

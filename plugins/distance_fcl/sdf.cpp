@@ -165,6 +165,22 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
 
   // 1. Each point's cell; cells seen for the first time and their missing nodes are queued.
   //    Points go in the clusters' spatial order, so the queued nodes form coherent packets.
+  queueCells(R, t);
+  // 2. The queued nodes, exactly, within the band.
+  evaluateQueuedNodes();
+  // 3. The queued cells.
+  for (const std::array<int, 3>& c : queued_cells_)
+    getBlock(c[0], c[1], c[2]).cell[local(c[0], c[1], c[2])] = classify(c[0], c[1], c[2]);
+
+  // 4. Each point: far, interpolated, or queued for an exact query.
+  interpolatePoints(max_distance, distance, closest_T);
+  // 5. Exact queries for the points in cells that are not smooth enough. Such a cell's nodes are
+  //    within the band, so its points are within band + diagonal of the surface.
+  calcFallbacks(max_distance, diag, distance, closest_T);
+  return 0;
+}
+
+void SdfMap::queueCells(const Eigen::Matrix3d& R, const Vec3& t) {
   queued_cells_.clear();
   node_ijk_.clear();
   node_p_.clear();
@@ -195,8 +211,9 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
       node_hint_.push_back(hint_[size_t(pi)]);
     }
   }
+}
 
-  // 2. The queued nodes, exactly, within the band.
+void SdfMap::evaluateQueuedNodes() {
   const int nn = int(node_p_.size());
   if (nn > 0) {
     node_found_.resize(size_t(nn));
@@ -221,12 +238,9 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
       for (int a = 0; a < 3; ++a) b.g[a][l] = int16_t(std::lround(std::clamp(g[a], -1.0, 1.0) * kGradScale));
     }
   }
+}
 
-  // 3. The queued cells.
-  for (const std::array<int, 3>& c : queued_cells_)
-    getBlock(c[0], c[1], c[2]).cell[local(c[0], c[1], c[2])] = classify(c[0], c[1], c[2]);
-
-  // 4. Each point: far, interpolated, or queued for an exact query.
+void SdfMap::interpolatePoints(double max_distance, double* distance, double* closest_T) {
   fallback_.clear();
   fallback_p_.clear();
   fallback_hint_.clear();
@@ -275,9 +289,9 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
       for (int m = 0; m < 3; ++m) closest_T[3 * pi + m] = ok ? q[m] : kNaN;
     }
   }
+}
 
-  // 5. Exact queries for the points in cells that are not smooth enough. Such a cell's nodes are
-  //    within the band, so its points are within band + diagonal of the surface.
+void SdfMap::calcFallbacks(double max_distance, double diag, double* distance, double* closest_T) {
   const int nf = int(fallback_.size());
   if (nf > 0) {
     sdf.exact_points += nf;
@@ -297,7 +311,6 @@ int SdfMap::compute(const Eigen::Matrix3d& R, const Vec3& t, double max_distance
         for (int m = 0; m < 3; ++m) closest_T[3 * pi + m] = std::abs(d) <= max_distance ? q[m] : kNaN;
     }
   }
-  return 0;
 }
 
 namespace {

@@ -58,6 +58,11 @@ struct SdfMap : ProviderContext {
   void reset(double band);
   Block& getBlock(int i, int j, int k);  // the block holding node (i, j, k), allocated on first use
   uint8_t classify(int i, int j, int k);  // a cell whose nodes are all evaluated
+  // The passes of compute(), in order (sdf.cpp says what each does).
+  void queueCells(const Eigen::Matrix3d& R, const Vec3& t);
+  void evaluateQueuedNodes();
+  void interpolatePoints(double max_distance, double* distance, double* closest_T);
+  void calcFallbacks(double max_distance, double diag, double* distance, double* closest_T);
 
   double band_ = 0;  // nodes within band_ of the surface hold exact values; 0: no grid yet
   Vec3 origin_ = Vec3::Zero();
