@@ -1,10 +1,16 @@
+// Building the knee model (tool/knee_model.hpp, steps 1-6 there): a Builder whose member functions
+// are the steps, and writing the model and its path table (runKneeModelTool).
+
 #include "tool/knee_model.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -19,37 +25,18 @@
 #include "model/osim_reader.hpp"
 #include "model/osim_writer.hpp"
 #include "sim/system.hpp"
+#include "tool/knee_model_detail.hpp"
 
 namespace kneesim::tool {
 
 namespace fs = std::filesystem;
+using detail::kDeg;
+using detail::kKneeModelBodyNames;
 using Eigen::Isometry3d;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
 namespace {
-
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-// "-x z y": the lab direction of each model axis.
-Matrix3d parseLabAxes(const xml::Node& n) {
-  const std::vector<std::string> words = n.toWords();
-  if (words.size() != 3) n.fail("expected three lab axes such as '-x z y', got '" + n.text() + "'");
-  Matrix3d R = Matrix3d::Zero();
-  for (int k = 0; k < 3; ++k) {
-    std::string w = toLower(words[k]);
-    double sign = 1;
-    if (!w.empty() && (w[0] == '-' || w[0] == '+')) {
-      sign = w[0] == '-' ? -1 : 1;
-      w = w.substr(1);
-    }
-    if (w.size() != 1 || w[0] < 'x' || w[0] > 'z') n.fail("expected an axis x, y or z with an optional sign, got '" + words[k] + "'");
-    R(w[0] - 'x', k) = sign;
-  }
-  if (std::abs(R.determinant() - 1.0) > 1e-12)
-    n.fail("expected a right-handed set of lab axes, got '" + n.text() + "'");
-  return R;
-}
 
 // Local linear regression with tricube weights of half-width h, evaluated at each t.
 std::vector<double> smoothLocalLinear(const std::vector<double>& t, const std::vector<double>& y, double h) {
@@ -168,8 +155,6 @@ struct SourceParts {
 
 const char* const kBodyNames[9] = {"pelvis", "femur", "femoral_component", "tibial_tray", "tibia",
                                    "patella", "talus", "calcaneus", "toes"};
-const char* const kNewBodyNames[9] = {"pelvis", "femur", "femoral_component", "tibial_component", "tibia",
-                                      "patella", "talus", "calcaneus", "toes"};
 enum { kPelvis, kFemur, kFemoral, kTray, kTibia, kPatella, kTalus, kCalcaneus, kToes };
 
 // The six transform axes of the knee's and the patellofemoral joint's CustomJoint, each driven
@@ -188,91 +173,90 @@ void setKneeAxes(model::Joint& j, const int c[6]) {
 
 }  // namespace
 
-KneeModelSetup readKneeModelSetup(const std::string& path) {
-  auto doc = xml::Document::load(path);
-  KneeModelSetup s;
-  s.setup_file = path;
-  const std::string dir = fs::path(path).parent_path().string();
-  xml::Node root = doc->root();
-  xml::Node tool = root.name() == "KneeModelTool" ? root : root.child("KneeModelTool");
-  if (!tool) root.fail("expected a <KneeModelTool> element, got <" + root.name() + ">");
-  static const std::set<std::string> known = {
-      "source_model_file", "femoral_component_file", "tibial_insert_file", "tibial_tray_file",
-      "patellar_button_file", "patella_bone_file", "fibula_file", "talus_file", "output_model_file", "path_file",
-      "neutral_flexion", "flexion_knots", "smoothing_window", "lab_axes", "MarkerSet", "CoordinateRanges"};
-  for (const xml::Node& c : tool.children())
-    if (!known.count(c.name()))
-      c.fail("unknown element <" + c.name() + "> in KneeModelTool (expected one of source_model_file, "
-             "femoral_component_file, tibial_insert_file, tibial_tray_file, patellar_button_file, patella_bone_file, "
-             "fibula_file, talus_file, output_model_file, path_file, neutral_flexion, flexion_knots, smoothing_window, lab_axes, "
-             "MarkerSet, CoordinateRanges)");
-  if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
-  auto required = [&](const char* tag) {
-    const std::string v = xml::resolvePath(dir, tool.requireChild(tag).text());
-    if (v.empty()) tool.child(tag).fail(std::string("expected a file name in <") + tag + ">, got nothing");
-    return v;
-  };
-  s.source_model_file = required("source_model_file");
-  s.femoral_component_file = required("femoral_component_file");
-  s.tibial_insert_file = required("tibial_insert_file");
-  s.output_model_file = required("output_model_file");
-  s.tibial_tray_file = xml::resolvePath(dir, tool.childText("tibial_tray_file"));
-  s.patellar_button_file = required("patellar_button_file");
-  s.patella_bone_file = xml::resolvePath(dir, tool.childText("patella_bone_file"));
-  s.fibula_file = xml::resolvePath(dir, tool.childText("fibula_file"));
-  s.talus_file = xml::resolvePath(dir, tool.childText("talus_file"));
-  s.path_file = xml::resolvePath(dir, tool.childText("path_file"));
-  s.neutral_flexion = tool.childDouble("neutral_flexion", 0.0) * kDeg;
-  if (xml::Node k = tool.child("flexion_knots")) {
-    const std::vector<double> v = k.toDoubles();
-    if (v.size() != 3 || !(v[2] > 0) || !(v[1] > v[0]))
-      k.fail("expected 'first last step' in degrees (first < last, step > 0), got '" + k.text() + "'");
-    for (double d = v[0]; d <= v[1] + 1e-9; d += v[2]) s.flexion_knots.push_back(d * kDeg);
-  } else {
-    for (int d = -20; d <= 140; d += 5) s.flexion_knots.push_back(d * kDeg);
-  }
-  auto is_knot = [&](double x) {
-    return std::any_of(s.flexion_knots.begin(), s.flexion_knots.end(), [&](double k) { return std::abs(k - x) < 1e-9; });
-  };
-  if (!is_knot(0.0) || !is_knot(s.neutral_flexion) || s.flexion_knots.size() < 4)
-    tool.fail("expected at least 4 flexion knots including 0 and the neutral flexion");
-  s.smoothing_window = tool.childDouble("smoothing_window", 15.0) * kDeg;
-  if (!(s.smoothing_window > 0)) tool.child("smoothing_window").fail("expected a positive window in degrees");
-  if (xml::Node a = tool.child("lab_axes")) s.R_lab_model = parseLabAxes(a);
-  if (xml::Node ms = tool.child("MarkerSet")) {
-    std::set<std::string> names;
-    for (const xml::Node& mk : ms.children()) {
-      if (mk.name() != "Marker") mk.fail("expected <Marker>, got <" + mk.name() + ">");
-      KneeModelMarker m;
-      m.name = mk.nameAttr();
-      if (m.name.empty()) mk.fail("expected a name attribute on <Marker>, got none");
-      if (!names.insert(m.name).second) mk.fail("duplicate marker '" + m.name + "'");
-      m.body = mk.requireChild("body").text();
-      if (std::find(std::begin(kNewBodyNames), std::end(kNewBodyNames), m.body) == std::end(kNewBodyNames))
-        mk.child("body").fail("unknown body '" + m.body + "' (expected pelvis, femur, femoral_component, "
-                              "tibial_component, tibia, patella, talus, calcaneus or toes)");
-      m.source = mk.childText("source");
-      s.markers.push_back(m);
-    }
-  }
-  if (xml::Node rs = tool.child("CoordinateRanges")) {
-    for (const xml::Node& r : rs.children()) {
-      if (r.name() != "Range") r.fail("expected <Range name=\"coordinate\">min max</Range>, got <" + r.name() + ">");
-      const std::vector<double> v = r.toDoubles();
-      if (r.nameAttr().empty() || v.size() != 2 || !(v[0] < v[1]))
-        r.fail("expected <Range name=\"coordinate\">min max</Range> with min < max, got '" + r.text() + "'");
-      s.ranges.push_back({r.nameAttr(), {v[0], v[1]}});
-    }
-  }
-  return s;
-}
+namespace {
 
-KneeModelResult buildKneeModel(const KneeModelSetup& s) {
+// One build of the knee model: the state the steps of the header's list share, and one member
+// function a step. run() is the order of the steps.
+class Builder {
+ public:
+  explicit Builder(const KneeModelSetup& s) : s(s), at_setup{s.setup_file, 0, ""} {}
+
+  KneeModelResult run() {
+    src = model::readOsim(s.source_model_file);
+    findSourceParts();
+    const io::StlOptions implant_opt{1.0, true, 0.01, 0.5};
+    femur_mesh = io::readStl(s.femoral_component_file, implant_opt);
+    insert_mesh = io::readStl(s.tibial_insert_file, implant_opt);
+    button_mesh = io::readStl(s.patellar_button_file, implant_opt);
+    checkFrames();
+    seatPath();
+    calcKneeFrames();
+    placePatella();
+    assembleModel();
+    checkThroughModel();
+    writeReportLines();
+    return {m, rep};
+  }
+
+ private:
+  void findSourceParts();
+  void expectParent(int child, int parent) const;
+  void checkFrames();
+  void seatPath();
+  void calcKneeFrames();
+  void placePatella();
+  void assembleModel();
+  void addBodies();
+  void addMesh(int part, const std::string& file, const Isometry3d& X_BG);
+  int copyCoordinate(int c);
+  int copyJoint(int part, int parent_part);
+  int addCoordinate(const std::string& name, model::MotionType mt, double lo, double hi, bool clamped, bool locked,
+                    double def);
+  // A CustomJoint from part parent_part to part child_part with frames X_PF and X_BM (no axes yet).
+  static model::Joint makeCustomJoint(const char* name, int parent_part, int child_part, const Isometry3d& X_PF,
+                                      const Isometry3d& X_BM);
+  void addKneeJoint();
+  void addPatfemJoint();
+  void setRanges();
+  void addMarkers();
+  void checkThroughModel();
+  void writeReportLines();
+
+  // The pose in ground of a part of the source model at its default pose.
+  Isometry3d X_G(int part) const { return src_sys->getBodyPose(*src_ws, parts.body[part]); }
+  static int nb(int part) { return part + 1; }  // new body index of a part
+
+  const KneeModelSetup& s;
+  const SourceLocation at_setup;
   KneeModelReport rep;
-  const SourceLocation at_setup{s.setup_file, 0, ""};
-  model::ModelPtr src = model::readOsim(s.source_model_file);
-
+  model::ModelPtr src;
   SourceParts parts;
+  io::TriangleMesh femur_mesh, insert_mesh, button_mesh;
+  // 1. Frame checks.
+  std::optional<sim::System> src_sys;
+  std::unique_ptr<sim::Workspace> src_ws;
+  Isometry3d X_TF_src, X_F_patsrc;
+  contact::CondyleFits fits;
+  std::optional<contact::Seater> seater;
+  // 2. The seated path.
+  int nk = 0, k0 = 0, kn = 0;  // number of knots, the zero-flexion knot, the neutral knot
+  std::vector<Isometry3d> X_IF;
+  // 3. The knee joint's frames and coordinates at the knots.
+  Isometry3d X_F_Fj, X_T_Tj;
+  std::vector<std::array<double, 6>> knee_q;
+  std::vector<double> flex_x;
+  double flex_default = 0;
+  // 4. The patella.
+  std::optional<ButtonContact> button;
+  Vector3d p0;  // button frame origin in F at zero flexion
+  std::vector<double> pf_tx, pf_ty, pf_knots;
+  Isometry3d X_F_P0, X_P_patsrc;
+  // 5. The model.
+  std::shared_ptr<model::Model> m;
+  std::map<int, int> coord_map;  // source coordinate -> new
+};
+
+void Builder::findSourceParts() {
   for (int i = 0; i < 9; ++i) {
     parts.body[i] = src->findBody(kBodyNames[i]);
     if (parts.body[i] < 0)
@@ -280,13 +264,6 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
                        std::string("expected a body '") + kBodyNames[i] + "' in " + s.source_model_file + ", got none");
     parts.joint[i] = src->findParentJoint(parts.body[i]);
   }
-  auto expectParent = [&](int child, int parent) {
-    const model::Joint& j = src->joints[parts.joint[child]];
-    if (j.parent_body != parts.body[parent])
-      throw InputError({s.setup_file, 0, "source_model_file"},
-                       "expected joint '" + j.name + "' to connect '" + kBodyNames[parent] + "' to '" +
-                           kBodyNames[child] + "', got parent '" + src->bodies[j.parent_body].name + "'");
-  };
   expectParent(kFemur, kPelvis);
   expectParent(kFemoral, kFemur);
   expectParent(kTray, kFemoral);
@@ -299,32 +276,35 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
       src->joints[parts.joint[kTibia]].type != model::JointType::Weld)
     throw InputError({s.setup_file, 0, "source_model_file"},
                      "expected the femoral component and the tibia to be welded to the femur and the tray");
+}
 
-  const io::StlOptions implant_opt{1.0, true, 0.01, 0.5};
-  io::TriangleMesh femur_mesh = io::readStl(s.femoral_component_file, implant_opt);
-  io::TriangleMesh insert_mesh = io::readStl(s.tibial_insert_file, implant_opt);
-  io::TriangleMesh button_mesh = io::readStl(s.patellar_button_file, implant_opt);
+void Builder::expectParent(int child, int parent) const {
+  const model::Joint& j = src->joints[parts.joint[child]];
+  if (j.parent_body != parts.body[parent])
+    throw InputError({s.setup_file, 0, "source_model_file"},
+                     "expected joint '" + j.name + "' to connect '" + kBodyNames[parent] + "' to '" + kBodyNames[child] +
+                         "', got parent '" + src->bodies[j.parent_body].name + "'");
+}
 
-  // ------------------------------------------------------------------ 1. frame checks
-  sim::System src_sys(src);
-  auto src_ws = src_sys.createWorkspace();
-  Eigen::VectorXd q_src = src_sys.getDefaultCoordinates();
+void Builder::checkFrames() {
+  src_sys.emplace(src);
+  src_ws = src_sys->createWorkspace();
+  Eigen::VectorXd q_src = src_sys->getDefaultCoordinates();
   for (const auto& cc : src->couplers) {  // a consistent default (the patella follows the knee)
     double x[6];
     for (size_t k = 0; k < cc.independents.size(); ++k) x[k] = q_src[cc.independents[k]];
     q_src[cc.dependent] = cc.scale_factor * cc.function->calcValue(x);
   }
-  src_sys.realizePosition(*src_ws, q_src);
-  auto X_G = [&](int part) { return src_sys.getBodyPose(*src_ws, parts.body[part]); };
-  const Isometry3d X_TF_src = X_G(kTray).inverse() * X_G(kFemoral);
-  const Isometry3d X_F_patsrc = X_G(kFemoral).inverse() * X_G(kPatella);
+  src_sys->realizePosition(*src_ws, q_src);
+  X_TF_src = X_G(kTray).inverse() * X_G(kFemoral);
+  X_F_patsrc = X_G(kFemoral).inverse() * X_G(kPatella);
 
-  const contact::CondyleFits fits = contact::fitCondyles(femur_mesh, contact::ArticularSelection{});
+  fits = contact::fitCondyles(femur_mesh, contact::ArticularSelection{});
   rep.hinge_radius = fits.both.cylinder.radius;
-  contact::Seater seater(contact::makeSeatingSetup(femur_mesh, insert_mesh, fits.both.cylinder));
+  seater.emplace(contact::makeSeatingSetup(femur_mesh, insert_mesh, fits.both.cylinder));
   {
     double gap[2];
-    seater.calcGaps(X_TF_src, 0.05, gap, nullptr);
+    seater->calcGaps(X_TF_src, 0.05, gap, nullptr);
     rep.source_gap_medial = gap[0];
     rep.source_gap_lateral = gap[1];
   }
@@ -349,28 +329,27 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
       rep.talus_minus_ankle = c - ankle_T;
     }
   }
-  io::TriangleMesh fibula_mesh, patella_mesh;
   if (!s.fibula_file.empty()) {
-    fibula_mesh = io::readStl(s.fibula_file, {1.0, false, 0.01, 0.6});
+    const io::TriangleMesh fibula_mesh = io::readStl(s.fibula_file, {1.0, false, 0.01, 0.6});
     rep.fibula_top = fibula_mesh.calcBounds().second.y();
   }
   if (!s.patella_bone_file.empty()) {
-    patella_mesh = io::readStl(s.patella_bone_file, {1.0, false, 0.01, 0.2});
+    const io::TriangleMesh patella_mesh = io::readStl(s.patella_bone_file, {1.0, false, 0.01, 0.2});
     rep.patella_cut_offset = patella_mesh.calcBounds().second.x();
   }
+}
 
-  // ------------------------------------------------------------------ 2. tibiofemoral path
+void Builder::seatPath() {
   const std::vector<double>& knots = s.flexion_knots;
-  const int nk = int(knots.size());
-  int k0 = 0, kn = 0;
+  nk = int(knots.size());
   for (int k = 0; k < nk; ++k) {
     if (std::abs(knots[k]) < 1e-9) k0 = k;
     if (std::abs(knots[k] - s.neutral_flexion) < 1e-9) kn = k;
   }
   std::vector<contact::SeatingResult> lowest(nk);
-  lowest[kn] = seater.calcSeating(knots[kn]);
-  for (int k = kn + 1; k < nk; ++k) lowest[k] = seater.calcSeating(knots[k], &lowest[k - 1].q);
-  for (int k = kn - 1; k >= 0; --k) lowest[k] = seater.calcSeating(knots[k], &lowest[k + 1].q);
+  lowest[kn] = seater->calcSeating(knots[kn]);
+  for (int k = kn + 1; k < nk; ++k) lowest[k] = seater->calcSeating(knots[k], &lowest[k - 1].q);
+  for (int k = kn - 1; k >= 0; --k) lowest[k] = seater->calcSeating(knots[k], &lowest[k + 1].q);
   for (int k = 0; k < nk; ++k)
     if (!(std::max(std::abs(lowest[k].gap_medial), std::abs(lowest[k].gap_lateral)) <= 1e-6))
       throw InputError(at_setup, "seating failed at " + fmt("%.1f", knots[k] / kDeg) + " deg flexion (gaps " +
@@ -389,8 +368,8 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
   const double ap_shift = ap[kn] - ap_s[kn], ml_shift = ml[kn] - ml_s[kn];
   contact::SeatingOptions fixed_opt;
   fixed_opt.max_outer_iterations = 0;  // (h, varus) only: the position stays where it is put
-  contact::Seater fixed(seater.getSetup(), fixed_opt);
-  std::vector<Isometry3d> X_IF(nk);
+  contact::Seater fixed(seater->getSetup(), fixed_opt);
+  X_IF.resize(nk);
   rep.knots.resize(nk);
   for (int k = 0; k < nk; ++k) {
     contact::SeatingCoordinates start = lowest[k].q;
@@ -413,16 +392,17 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     rep.source_minus_seated = X_TF_src.translation() - X_IF[kn].translation();
     rep.source_seated_angle = Eigen::AngleAxisd(D.linear()).angle();
   }
+}
 
-  // ------------------------------------------------------------------ 3. knee joint frames
+void Builder::calcKneeFrames() {
   const Vector3d z_j = -fits.both.cylinder.axis.normalized();  // the tibia flexes about +z_j
   const Vector3d post = Vector3d::UnitX();
   const Vector3d x_j = (post - post.dot(z_j) * z_j).normalized();
-  Isometry3d X_F_Fj = Isometry3d::Identity();
+  X_F_Fj = Isometry3d::Identity();
   X_F_Fj.linear() << x_j, z_j.cross(x_j), z_j;
   X_F_Fj.translation() = fits.both.cylinder.point;
-  const Isometry3d X_T_Tj = X_IF[k0] * X_F_Fj;
-  std::vector<std::array<double, 6>> knee_q(nk);
+  X_T_Tj = X_IF[k0] * X_F_Fj;
+  knee_q.resize(nk);
   for (int k = 0; k < nk; ++k) {
     const Isometry3d X = X_F_Fj.inverse() * X_IF[k].inverse() * X_T_Tj;
     const Vector3d zxy = decomposeZXY(X.linear());
@@ -436,15 +416,19 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
       throw InputError(at_setup, "expected the seated path's flexion to increase, got " +
                                      fmt("%.3f", knee_q[k][0] / kDeg) + " deg after " +
                                      fmt("%.3f", knee_q[k - 1][0] / kDeg) + " deg (knots closer than the seating's resolution?)");
+  flex_x.resize(nk);
+  for (int k = 0; k < nk; ++k) flex_x[k] = knee_q[k][0];
+  flex_default = knee_q[kn][0];
+}
 
-  // ------------------------------------------------------------------ 4. patella
-  ButtonContact button(femur_mesh, button_mesh);
+void Builder::placePatella() {
+  button.emplace(femur_mesh, button_mesh);
   // Neutral placement at zero flexion: button axes = F axes, dome facing posterior (toward the
   // femoral component), at the height of F's origin; medio-lateral position in the trochlear
   // groove (where the seated button sits most posterior), distance where the dome touches.
   const Vector3d anterior(-1, 0, 0);
   auto seatedX = [&](double z) {
-    return -button.calcTouchingOffset(Matrix3d::Identity(), Vector3d(0, 0, z), anterior, 0.08);
+    return -button->calcTouchingOffset(Matrix3d::Identity(), Vector3d(0, 0, z), anterior, 0.08);
   };
   double best_z = 0, best_x = -1;
   for (double z = -10e-3; z <= 10e-3 + 1e-12; z += 1e-3) {
@@ -463,94 +447,33 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
       }
     }
   }
-  const Vector3d p0(best_x, 0, best_z);  // button frame origin in F at zero flexion
-  std::vector<double> pf_tx(nk), pf_ty(nk), pf_knots(nk);
+  p0 = Vector3d(best_x, 0, best_z);
+  pf_tx.resize(nk);
+  pf_ty.resize(nk);
+  pf_knots.resize(nk);
   for (int k = 0; k < nk; ++k) {
     const double th = knee_q[k][0];
     const Matrix3d R = rotZ(th);
-    const double delta = button.calcTouchingOffset(R, R * p0, R * anterior, 0.03);
+    const double delta = button->calcTouchingOffset(R, R * p0, R * anterior, 0.03);
     Isometry3d X_fixed = Isometry3d::Identity();
     X_fixed.linear() = R;
     X_fixed.translation() = R * p0;
     rep.knots[k].patella_offset = delta;
-    rep.knots[k].patella_gap = button.calcGap(X_fixed);  // at the neutral radius (no offset)
+    rep.knots[k].patella_gap = button->calcGap(X_fixed);  // at the neutral radius (no offset)
     pf_knots[k] = th;
     pf_tx[k] = delta * std::cos(th);   // along the anterior axis
     pf_ty[k] = -delta * std::sin(th);  // along the superior axis
   }
-  Isometry3d X_F_P0 = Isometry3d::Identity();
+  X_F_P0 = Isometry3d::Identity();
   X_F_P0.translation() = p0;
-  const Isometry3d X_P_patsrc = X_F_P0.inverse() * X_F_patsrc;
+  X_P_patsrc = X_F_P0.inverse() * X_F_patsrc;
+}
 
-  // ------------------------------------------------------------------ 5. the model
-  auto m = std::make_shared<model::Model>();
+void Builder::assembleModel() {
+  m = std::make_shared<model::Model>();
   m->name = s.name;
   m->gravity = -9.80665 * s.R_lab_model.col(1);
-  m->bodies.resize(10);
-  m->bodies[0].name = "ground";
-  auto nb = [](int part) { return part + 1; };  // new body index of a part
-  for (int i = 0; i < 9; ++i) {
-    model::Body b = src->bodies[parts.body[i]];
-    b.name = kNewBodyNames[i];
-    b.meshes.clear();
-    if (i == kPatella) {  // re-expressed in the button's frame
-      b.mass_center = X_P_patsrc * b.mass_center;
-      b.inertia = X_P_patsrc.linear() * b.inertia * X_P_patsrc.linear().transpose();
-    }
-    m->bodies[nb(i)] = b;
-  }
-  const fs::path out_dir = fs::absolute(fs::path(s.output_model_file)).parent_path();
-  auto addMesh = [&](int part, const std::string& file, const Isometry3d& X_BG) {
-    if (file.empty()) return;
-    model::MeshRef mesh;
-    mesh.file = fs::absolute(file).lexically_normal().lexically_relative(out_dir).generic_string();
-    mesh.resolved_path = fs::absolute(file).lexically_normal().string();
-    mesh.X_BG = X_BG;
-    m->bodies[nb(part)].meshes.push_back(mesh);
-  };
-  addMesh(kFemoral, s.femoral_component_file, Isometry3d::Identity());
-  addMesh(kTray, s.tibial_tray_file, Isometry3d::Identity());
-  addMesh(kTray, s.tibial_insert_file, Isometry3d::Identity());
-  addMesh(kTibia, s.fibula_file, X_G(kTibia).inverse() * X_G(kTray));
-  addMesh(kPatella, s.patellar_button_file, Isometry3d::Identity());
-  addMesh(kPatella, s.patella_bone_file, Isometry3d::Identity());
-
-  std::map<int, int> coord_map;  // source coordinate -> new
-  auto copyCoordinate = [&](int c) {
-    coord_map[c] = int(m->coordinates.size());
-    m->coordinates.push_back(src->coordinates[c]);
-    m->coordinates.back().joint = -1;
-    return coord_map[c];
-  };
-  auto copyJoint = [&](int part, int parent_part) {
-    model::Joint j = src->joints[parts.joint[part]];
-    j.parent_body = parent_part < 0 ? 0 : nb(parent_part);
-    j.child_body = nb(part);
-    for (int& c : j.coordinates) c = copyCoordinate(c);
-    for (auto& ax : j.spatial)
-      for (int& c : ax.coordinates) c = coord_map.at(c);
-    m->joints.push_back(j);
-    return int(m->joints.size()) - 1;
-  };
-  auto addCoordinate = [&](const std::string& name, model::MotionType mt, double lo, double hi, bool clamped,
-                           bool locked, double def) {
-    model::Coordinate c;
-    c.name = name;
-    c.motion_type = mt;
-    c.range_min = lo;
-    c.range_max = hi;
-    c.clamped = clamped;
-    c.locked = locked;
-    c.default_value = def;
-    m->coordinates.push_back(c);
-    return int(m->coordinates.size()) - 1;
-  };
-  auto spline = [&](const std::vector<double>& x, auto get) {
-    std::vector<double> y(x.size());
-    for (size_t k = 0; k < x.size(); ++k) y[k] = get(int(k));
-    return model::makeSimmSpline(x, y);
-  };
-
+  addBodies();
   {  // pelvis: its parent frame turns the model's axes into the lab's
     const int j = copyJoint(kPelvis, -1);
     Isometry3d R = Isometry3d::Identity();
@@ -559,82 +482,154 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
   }
   copyJoint(kFemur, kPelvis);
   copyJoint(kFemoral, kFemur);
-
-  std::vector<double> flex_x(nk);
-  for (int k = 0; k < nk; ++k) flex_x[k] = knee_q[k][0];
-  const double flex_default = knee_q[kn][0];
-  {
-    model::Joint j;
-    j.name = "knee";
-    j.type = model::JointType::Custom;
-    j.parent_body = nb(kFemoral);
-    j.child_body = nb(kTray);
-    j.X_PF = X_F_Fj;
-    j.X_BM = X_T_Tj;
-    const model::MotionType R = model::MotionType::Rotational, T = model::MotionType::Translational;
-    const double fmin = flex_x.front(), fmax = flex_x.back();
-    const int c_flex = addCoordinate("knee_flexion", R, fmin, fmax, true, false, flex_default);
-    const char* names[6] = {"knee_flexion", "knee_adduction", "knee_rotation", "knee_tx", "knee_ty", "knee_tz"};
-    int c[6] = {c_flex, 0, 0, 0, 0, 0};
-    for (int i = 1; i < 6; ++i)
-      c[i] = addCoordinate(names[i], i < 3 ? R : T, i < 3 ? -30 * kDeg : -0.05, i < 3 ? 30 * kDeg : 0.05, false, false,
-                           0.0);
-    setKneeAxes(j, c);
-    m->joints.push_back(j);
-    for (int i = 1; i < 6; ++i) {
-      model::CoordinateCoupler cc;
-      cc.name = std::string(names[i]) + "_path";
-      cc.independents = {c_flex};
-      cc.dependent = c[i];
-      cc.function = spline(flex_x, [&](int k) { return knee_q[k][i]; });
-      m->coordinates[c[i]].default_value = cc.function->calcValue(flex_default);
-      m->couplers.push_back(cc);
-    }
-  }
+  addKneeJoint();
   copyJoint(kTibia, kTray);
   m->joints.back().name = "tibial_component_weld";
-  {
-    model::Joint j;
-    j.name = "patfem";
-    j.type = model::JointType::Custom;
-    j.parent_body = nb(kFemoral);
-    j.child_body = nb(kPatella);
-    j.X_PF = Isometry3d::Identity();
-    j.X_BM = X_F_P0.inverse();  // M sits on F's origin at zero flexion
-    const model::MotionType R = model::MotionType::Rotational, T = model::MotionType::Translational;
-    const char* names[6] = {"patfem_flexion", "patfem_adduction", "patfem_rotation", "patfem_tx", "patfem_ty", "patfem_tz"};
-    int c[6];
-    c[0] = addCoordinate(names[0], R, flex_x.front(), flex_x.back(), false, false, flex_default);
-    c[1] = addCoordinate(names[1], R, -30 * kDeg, 30 * kDeg, false, true, 0.0);
-    c[2] = addCoordinate(names[2], R, -30 * kDeg, 30 * kDeg, false, true, 0.0);
-    c[3] = addCoordinate(names[3], T, -0.05, 0.05, false, false, 0.0);
-    c[4] = addCoordinate(names[4], T, -0.05, 0.05, false, false, 0.0);
-    c[5] = addCoordinate(names[5], T, -0.05, 0.05, false, true, 0.0);
-    setKneeAxes(j, c);
-    m->joints.push_back(j);
-    int knee_flex = -1;
-    for (size_t i = 0; i < m->coordinates.size(); ++i)
-      if (m->coordinates[i].name == "knee_flexion") knee_flex = int(i);
-    model::CoordinateCoupler cf;
-    cf.name = "patfem_flexion_path";
-    cf.independents = {knee_flex};
-    cf.dependent = c[0];
-    cf.function = model::makeLinear(1.0, 0.0);
-    m->couplers.push_back(cf);
-    for (int i : {3, 4}) {
-      model::CoordinateCoupler cc;
-      cc.name = std::string(names[i]) + "_path";
-      cc.independents = {knee_flex};
-      cc.dependent = c[i];
-      const std::vector<double>& y = i == 3 ? pf_tx : pf_ty;
-      cc.function = model::makeSimmSpline(pf_knots, y);
-      m->coordinates[c[i]].default_value = cc.function->calcValue(flex_default);
-      m->couplers.push_back(cc);
-    }
-  }
+  addPatfemJoint();
   copyJoint(kTalus, kTibia);
   copyJoint(kCalcaneus, kTalus);
   copyJoint(kToes, kCalcaneus);
+  setRanges();
+  addMarkers();
+  m->finalize();
+}
+
+void Builder::addBodies() {
+  m->bodies.resize(10);
+  m->bodies[0].name = "ground";
+  for (int i = 0; i < 9; ++i) {
+    model::Body b = src->bodies[parts.body[i]];
+    b.name = kKneeModelBodyNames[i];
+    b.meshes.clear();
+    if (i == kPatella) {  // re-expressed in the button's frame
+      b.mass_center = X_P_patsrc * b.mass_center;
+      b.inertia = X_P_patsrc.linear() * b.inertia * X_P_patsrc.linear().transpose();
+    }
+    m->bodies[nb(i)] = b;
+  }
+  addMesh(kFemoral, s.femoral_component_file, Isometry3d::Identity());
+  addMesh(kTray, s.tibial_tray_file, Isometry3d::Identity());
+  addMesh(kTray, s.tibial_insert_file, Isometry3d::Identity());
+  addMesh(kTibia, s.fibula_file, X_G(kTibia).inverse() * X_G(kTray));
+  addMesh(kPatella, s.patellar_button_file, Isometry3d::Identity());
+  addMesh(kPatella, s.patella_bone_file, Isometry3d::Identity());
+}
+
+void Builder::addMesh(int part, const std::string& file, const Isometry3d& X_BG) {
+  if (file.empty()) return;
+  const fs::path out_dir = fs::absolute(fs::path(s.output_model_file)).parent_path();
+  model::MeshRef mesh;
+  mesh.file = fs::absolute(file).lexically_normal().lexically_relative(out_dir).generic_string();
+  mesh.resolved_path = fs::absolute(file).lexically_normal().string();
+  mesh.X_BG = X_BG;
+  m->bodies[nb(part)].meshes.push_back(mesh);
+}
+
+int Builder::copyCoordinate(int c) {
+  coord_map[c] = int(m->coordinates.size());
+  m->coordinates.push_back(src->coordinates[c]);
+  m->coordinates.back().joint = -1;
+  return coord_map[c];
+}
+
+int Builder::copyJoint(int part, int parent_part) {
+  model::Joint j = src->joints[parts.joint[part]];
+  j.parent_body = parent_part < 0 ? 0 : nb(parent_part);
+  j.child_body = nb(part);
+  for (int& c : j.coordinates) c = copyCoordinate(c);
+  for (auto& ax : j.spatial)
+    for (int& c : ax.coordinates) c = coord_map.at(c);
+  m->joints.push_back(j);
+  return int(m->joints.size()) - 1;
+}
+
+int Builder::addCoordinate(const std::string& name, model::MotionType mt, double lo, double hi, bool clamped,
+                           bool locked, double def) {
+  model::Coordinate c;
+  c.name = name;
+  c.motion_type = mt;
+  c.range_min = lo;
+  c.range_max = hi;
+  c.clamped = clamped;
+  c.locked = locked;
+  c.default_value = def;
+  m->coordinates.push_back(c);
+  return int(m->coordinates.size()) - 1;
+}
+
+model::Joint Builder::makeCustomJoint(const char* name, int parent_part, int child_part, const Isometry3d& X_PF,
+                                      const Isometry3d& X_BM) {
+  model::Joint j;
+  j.name = name;
+  j.type = model::JointType::Custom;
+  j.parent_body = nb(parent_part);
+  j.child_body = nb(child_part);
+  j.X_PF = X_PF;
+  j.X_BM = X_BM;
+  return j;
+}
+
+void Builder::addKneeJoint() {
+  model::Joint j = makeCustomJoint("knee", kFemoral, kTray, X_F_Fj, X_T_Tj);
+  const model::MotionType R = model::MotionType::Rotational, T = model::MotionType::Translational;
+  const double fmin = flex_x.front(), fmax = flex_x.back();
+  const int c_flex = addCoordinate("knee_flexion", R, fmin, fmax, true, false, flex_default);
+  const char* names[6] = {"knee_flexion", "knee_adduction", "knee_rotation", "knee_tx", "knee_ty", "knee_tz"};
+  int c[6] = {c_flex, 0, 0, 0, 0, 0};
+  for (int i = 1; i < 6; ++i)
+    c[i] = addCoordinate(names[i], i < 3 ? R : T, i < 3 ? -30 * kDeg : -0.05, i < 3 ? 30 * kDeg : 0.05, false, false,
+                         0.0);
+  setKneeAxes(j, c);
+  m->joints.push_back(j);
+  for (int i = 1; i < 6; ++i) {
+    model::CoordinateCoupler cc;
+    cc.name = std::string(names[i]) + "_path";
+    cc.independents = {c_flex};
+    cc.dependent = c[i];
+    std::vector<double> y(nk);
+    for (int k = 0; k < nk; ++k) y[k] = knee_q[k][i];
+    cc.function = model::makeSimmSpline(flex_x, y);
+    m->coordinates[c[i]].default_value = cc.function->calcValue(flex_default);
+    m->couplers.push_back(cc);
+  }
+}
+
+void Builder::addPatfemJoint() {
+  // M sits on F's origin at zero flexion.
+  model::Joint j = makeCustomJoint("patfem", kFemoral, kPatella, Isometry3d::Identity(), X_F_P0.inverse());
+  const model::MotionType R = model::MotionType::Rotational, T = model::MotionType::Translational;
+  const char* names[6] = {"patfem_flexion", "patfem_adduction", "patfem_rotation", "patfem_tx", "patfem_ty", "patfem_tz"};
+  int c[6];
+  c[0] = addCoordinate(names[0], R, flex_x.front(), flex_x.back(), false, false, flex_default);
+  c[1] = addCoordinate(names[1], R, -30 * kDeg, 30 * kDeg, false, true, 0.0);
+  c[2] = addCoordinate(names[2], R, -30 * kDeg, 30 * kDeg, false, true, 0.0);
+  c[3] = addCoordinate(names[3], T, -0.05, 0.05, false, false, 0.0);
+  c[4] = addCoordinate(names[4], T, -0.05, 0.05, false, false, 0.0);
+  c[5] = addCoordinate(names[5], T, -0.05, 0.05, false, true, 0.0);
+  setKneeAxes(j, c);
+  m->joints.push_back(j);
+  int knee_flex = -1;
+  for (size_t i = 0; i < m->coordinates.size(); ++i)
+    if (m->coordinates[i].name == "knee_flexion") knee_flex = int(i);
+  model::CoordinateCoupler cf;
+  cf.name = "patfem_flexion_path";
+  cf.independents = {knee_flex};
+  cf.dependent = c[0];
+  cf.function = model::makeLinear(1.0, 0.0);
+  m->couplers.push_back(cf);
+  for (int i : {3, 4}) {
+    model::CoordinateCoupler cc;
+    cc.name = std::string(names[i]) + "_path";
+    cc.independents = {knee_flex};
+    cc.dependent = c[i];
+    const std::vector<double>& y = i == 3 ? pf_tx : pf_ty;
+    cc.function = model::makeSimmSpline(pf_knots, y);
+    m->coordinates[c[i]].default_value = cc.function->calcValue(flex_default);
+    m->couplers.push_back(cc);
+  }
+}
+
+void Builder::setRanges() {
   for (const auto& [name, range] : s.ranges) {
     auto it = std::find_if(m->coordinates.begin(), m->coordinates.end(),
                            [&](const model::Coordinate& c) { return c.name == name; });
@@ -644,14 +639,15 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     it->range_min = range.first * unit;
     it->range_max = range.second * unit;
   }
+}
 
-  // Markers.
+void Builder::addMarkers() {
   for (const KneeModelMarker& km : s.markers) {
     model::Marker mk;
     mk.name = km.name;
     int part = -1;
     for (int i = 0; i < 9; ++i)
-      if (km.body == kNewBodyNames[i]) part = i;
+      if (km.body == kKneeModelBodyNames[i]) part = i;
     mk.body = nb(part);
     if (!km.source.empty()) {
       const int sm = src->findMarker(km.source);
@@ -666,34 +662,34 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     }
     m->markers.push_back(mk);
   }
-  m->finalize();
+}
 
-  // ------------------------------------------------------------------ check through the model
-  // The built model, driven by knee_flexion alone (couplers applied), must reproduce the seated
-  // path: both condyles on the insert and the button on the femoral component, also between knots.
-  {
-    sim::System sys(m);
-    auto ws = sys.createWorkspace();
-    const int fc = nb(kFemoral), tc = nb(kTray), pc = nb(kPatella), kf = m->findCoordinate("knee_flexion");
-    for (int k = 0; k + 1 < nk; ++k) {
-      for (double w : {0.0, 0.5}) {
-        Eigen::VectorXd q = sys.getDefaultCoordinates();
-        q[kf] = (1 - w) * flex_x[k] + w * flex_x[k + 1];
-        for (const auto& cc : m->couplers) q[cc.dependent] = cc.scale_factor * cc.function->calcValue(q[cc.independents[0]]);
-        sys.realizePosition(*ws, q);
-        const Isometry3d X_GF = sys.getBodyPose(*ws, fc);
-        double gap[2];
-        seater.calcGaps(sys.getBodyPose(*ws, tc).inverse() * X_GF, 0.05, gap, nullptr);
-        const double pg = button.calcGap(X_GF.inverse() * sys.getBodyPose(*ws, pc));
-        double& tf = w == 0 ? rep.model_knot_gap : rep.model_midpoint_gap;
-        double& pf = w == 0 ? rep.model_knot_patella_gap : rep.model_midpoint_patella_gap;
-        tf = std::max({tf, std::abs(gap[0]), std::abs(gap[1])});
-        pf = std::max(pf, std::abs(pg));
-      }
+// The built model, driven by knee_flexion alone (couplers applied), must reproduce the seated
+// path: both condyles on the insert and the button on the femoral component, also between knots.
+void Builder::checkThroughModel() {
+  sim::System sys(m);
+  auto ws = sys.createWorkspace();
+  const int fc = nb(kFemoral), tc = nb(kTray), pc = nb(kPatella), kf = m->findCoordinate("knee_flexion");
+  for (int k = 0; k + 1 < nk; ++k) {
+    for (double w : {0.0, 0.5}) {
+      Eigen::VectorXd q = sys.getDefaultCoordinates();
+      q[kf] = (1 - w) * flex_x[k] + w * flex_x[k + 1];
+      for (const auto& cc : m->couplers) q[cc.dependent] = cc.scale_factor * cc.function->calcValue(q[cc.independents[0]]);
+      sys.realizePosition(*ws, q);
+      const Isometry3d X_GF = sys.getBodyPose(*ws, fc);
+      double gap[2];
+      seater->calcGaps(sys.getBodyPose(*ws, tc).inverse() * X_GF, 0.05, gap, nullptr);
+      const double pg = button->calcGap(X_GF.inverse() * sys.getBodyPose(*ws, pc));
+      double& tf = w == 0 ? rep.model_knot_gap : rep.model_midpoint_gap;
+      double& pf = w == 0 ? rep.model_knot_patella_gap : rep.model_midpoint_patella_gap;
+      tf = std::max({tf, std::abs(gap[0]), std::abs(gap[1])});
+      pf = std::max(pf, std::abs(pg));
     }
   }
+}
 
-  // ------------------------------------------------------------------ report
+void Builder::writeReportLines() {
+  const std::vector<double>& knots = s.flexion_knots;
   auto& L = rep.lines;
   char buf[512];
   auto add = [&](const char* f, auto... a) {
@@ -727,8 +723,12 @@ KneeModelResult buildKneeModel(const KneeModelSetup& s) {
     add("   %8.1f %9.3f %9.3f %8.3f %8.3f %8.3f %9.3f %8.3f %7.2f %11.3f %10.3f", k.q[0] / kDeg, k.q[1] / kDeg,
         k.q[2] / kDeg, k.q[3] * 1e3, k.q[4] * 1e3, k.q[5] * 1e3, k.gap_medial * 1e6, k.gap_lateral * 1e6,
         k.height_above_lowest * 1e6, k.patella_offset * 1e3, k.patella_gap * 1e3);
-  return {m, rep};
 }
+
+}  // namespace
+
+KneeModelResult buildKneeModel(const KneeModelSetup& s) { return Builder(s).run(); }
+
 
 void runKneeModelTool(const std::string& setup_path, const RunOptions& options) {
   const KneeModelSetup setup = readKneeModelSetup(setup_path);
