@@ -102,6 +102,9 @@ void Model::finalize() {
                        "expected " + std::to_string(cc.function->getArgumentSize()) + " independent coordinates, got " +
                            std::to_string(cc.independents.size()));
   }
+  for (const Constraint& c : constraints)
+    if (c.body1 < 0 || c.body1 >= int(bodies.size()) || c.body2 < 0 || c.body2 >= int(bodies.size()))
+      throw InputError({source_file, 0, "constraint[" + c.name + "]"}, "constraint connects no known bodies");
   for (const Marker& m : markers)
     if (m.body < 0 || m.body >= int(bodies.size()))
       throw InputError({source_file, 0, "marker[" + m.name + "]"}, "marker is attached to no known body");
@@ -129,6 +132,32 @@ int Model::findMarker(const std::string& n) const { return lookup(marker_index_,
 int Model::findMuscle(const std::string& n) const { return lookup(muscle_index_, n); }
 int Model::findParentJoint(int body) const {
   return (body >= 0 && body < int(parent_joint_.size())) ? parent_joint_[body] : -1;
+}
+
+const char* getJointTypeName(JointType type) {
+  switch (type) {
+    case JointType::Weld: return "WeldJoint";
+    case JointType::Pin: return "PinJoint";
+    case JointType::Slider: return "SliderJoint";
+    case JointType::Ball: return "BallJoint";
+    case JointType::Free: return "FreeJoint";
+    case JointType::Universal: return "UniversalJoint";
+    case JointType::Gimbal: return "GimbalJoint";
+    case JointType::Custom: return "CustomJoint";
+    case JointType::Ellipsoid: return "EllipsoidJoint";
+    case JointType::Scapulothoracic: return "ScapulothoracicJoint";
+  }
+  return "Joint";
+}
+
+const char* getConstraintTypeName(ConstraintType type) {
+  switch (type) {
+    case ConstraintType::Point: return "PointConstraint";
+    case ConstraintType::PointOnLine: return "PointOnLineConstraint";
+    case ConstraintType::ConstantDistance: return "ConstantDistanceConstraint";
+    case ConstraintType::Weld: return "WeldConstraint";
+  }
+  return "Constraint";
 }
 
 Pose poseFromXYZ(const Vec3& r, const Vec3& p) {

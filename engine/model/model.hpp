@@ -1,6 +1,6 @@
 #pragma once
 // The immutable description of a musculoskeletal model: bodies, joints, coordinates,
-// couplers, markers and force elements, as read from an OpenSim .osim or a URDF file.
+// couplers, constraints, markers and force elements, as read from an OpenSim .osim or a URDF file.
 //
 // Frame notation (Drake): X_PF is the pose of frame F measured in frame P; p_BM is the
 // position of point M from B's origin expressed in B. All lengths are in metres, angles in
@@ -41,7 +41,13 @@ struct Body {
   std::vector<MeshRef> meshes;
 };
 
-enum class JointType { Weld, Pin, Slider, Ball, Free, Universal, Gimbal, Custom };
+/// Joint types. Ellipsoid is OpenSim's EllipsoidJoint (Simbody's Ellipsoid mobilizer: body-fixed
+/// X-Y-Z angles, the M origin sliding on an ellipsoid fixed in F). Scapulothoracic is OpenSim's
+/// ScapulothoracicJoint (an Ellipsoid mobilizer then a winging Pin, 4 coordinates).
+enum class JointType { Weld, Pin, Slider, Ball, Free, Universal, Gimbal, Custom, Ellipsoid, Scapulothoracic };
+
+/// The name OpenSim gives a joint type in a model file ("PinJoint", "CustomJoint", ...).
+const char* getJointTypeName(JointType type);
 enum class MotionType { Rotational, Translational, Coupled };
 
 /// One of the six axes of a CustomJoint's SpatialTransform.
@@ -64,6 +70,12 @@ struct Joint {
   bool reverse = false;
   std::vector<int> coordinates;      ///< Model coordinate indices, in the joint's own order.
   std::array<TransformAxis, 6> spatial;  ///< Used by JointType::Custom only.
+  /// Ellipsoid: the semi-axes along F's x, y, z. Scapulothoracic: OpenSim's
+  /// thoracic_ellipsoid_radii_x_y_z, along the parent frame's axes (m).
+  Vec3 radii = Vec3::Zero();
+  /// Scapulothoracic only: scapula_winging_axis_origin (m) and scapula_winging_axis_direction (rad).
+  Eigen::Vector2d winging_origin = Eigen::Vector2d::Zero();
+  double winging_direction = 0.0;
 };
 
 /// A generalised coordinate.
@@ -88,6 +100,29 @@ struct CoordinateCoupler {
   double scale_factor = 1.0;
 };
 
+/// The kinds of OpenSim constraint kneesim enforces besides couplers.
+enum class ConstraintType {
+  Point,             ///< PointConstraint: a point of body 1 and a point of body 2 coincide (3 equations).
+  PointOnLine,       ///< PointOnLineConstraint: a point of body 2 (follower) stays on a line of body 1 (2).
+  ConstantDistance,  ///< ConstantDistanceConstraint: two points stay `distance` apart (1).
+  Weld               ///< WeldConstraint: frame F1 on body 1 and frame F2 on body 2 coincide (6).
+};
+
+/// An OpenSim constraint between two bodies (couplers are CoordinateCoupler). Frames F1 and F2 are
+/// fixed on body1 and body2: the constrained points are their origins; a PointOnLine's line runs
+/// through F1's origin along F1's x axis; a Weld makes F2 coincide with F1.
+struct Constraint {
+  std::string name;
+  ConstraintType type = ConstraintType::Point;
+  int body1 = -1, body2 = -1;
+  Pose X_B1F1 = Pose::Identity();
+  Pose X_B2F2 = Pose::Identity();
+  double distance = 0.0;  ///< ConstantDistance only (m).
+};
+
+/// Name of a constraint type as OpenSim writes it ("PointConstraint", ...).
+const char* getConstraintTypeName(ConstraintType type);
+
 /// A marker fixed on a body.
 struct Marker {
   std::string name;
@@ -100,6 +135,12 @@ struct Marker {
 struct IgnoredComponent {
   std::string type;  ///< XML tag, e.g. "Thelen2003Muscle".
   std::string name;
+  /// What it is, for messages: "muscle", "ligament", "contact" (contact forces), "contact
+  /// geometry", "force", "constraint", "wrap object", "controller", "probe", "other".
+  std::string category = "other";
+  /// True when leaving it out changes where the bodies go where OpenSim would (kinematic
+  /// constraints), or where the model is meant to be posed by forces (ligaments, contact).
+  bool affects_kinematics = false;
 };
 
 /// The model. Built by a reader, then finalize()d; treat as immutable afterwards and share it
@@ -114,6 +155,7 @@ class Model {
   std::vector<Joint> joints;
   std::vector<Coordinate> coordinates;
   std::vector<CoordinateCoupler> couplers;
+  std::vector<Constraint> constraints;
   std::vector<Marker> markers;
   std::vector<WrapObject> wrap_objects;
   std::vector<Muscle> muscles;

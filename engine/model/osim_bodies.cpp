@@ -15,58 +15,68 @@ void OsimReader::readBodies(const Node& model_el, bool v4) {
   m_->bodies.push_back(ground);
   body_nodes_.push_back(Node());
   body_index_["ground"] = 0;
+  body_paths_["/ground"] = 0;
   if (Node g = model_el.child("Ground")) {
     body_nodes_[0] = g;
     readWrapObjects(g, 0);
   }
-  Node set = model_el.requireChild("BodySet");
+  // OpenSim 4 models may list their bodies in the model's <components> (Moco writes them so)
+  // instead of a BodySet; both are read, with component paths /bodyset/<b> and /<b>.
+  Node set = v4 ? model_el.child("BodySet") : model_el.requireChild("BodySet");
   bool ground_seen = v4;
   for (const Node& b : set.child("objects").children()) {
     if (b.name() != "Body") {
-      m_->ignored.push_back({b.name(), b.nameAttr()});
+      ignore(b, "BodySet");
       continue;
     }
     const std::string name = b.nameAttr();
     if (name.empty()) b.fail("expected a name attribute on <Body>, got none");
-    int index;
     if (name == "ground" && !v4) {
       if (ground_seen) b.fail("duplicate body name 'ground'");
       ground_seen = true;
-      index = 0;
       body_nodes_[0] = b;
-    } else {
-      if (body_index_.count(name)) b.fail("duplicate body name '" + name + "'");
-      index = int(m_->bodies.size());
-      m_->bodies.emplace_back();
-      body_nodes_.push_back(b);
-      body_index_[name] = index;
+      readWrapObjects(b, 0);
+      readMeshes3(b, 0);
+      Node jw = b.child("Joint");
+      if (jw && !jw.children().empty())
+        jw.children()[0].fail("expected no joint on ground, got <" + jw.children()[0].name() + ">");
+      continue;
     }
-    Body& body = m_->bodies[index];
-    body.name = name;
-    if (index > 0) {
-      body.mass = b.childDouble("mass", 0.0);
-      if (!std::isfinite(body.mass) || body.mass < 0)
-        b.child("mass").fail("expected a non-negative mass, got " + b.childText("mass"));
-      body.mass_center = b.childVec3("mass_center", Vec3::Zero());
-      body.inertia = readInertia(b);
-    }
-    readWrapObjects(b, index);
+    const int index = addBody(b, "/bodyset/" + name);
     if (!v4) {
       readMeshes3(b, index);
       Node jw = b.child("Joint");
       std::vector<Node> kids = jw ? jw.children() : std::vector<Node>();
       if (kids.size() > 1) jw.fail("expected one joint in <Joint>, got " + std::to_string(kids.size()));
-      if (index == 0) {
-        if (!kids.empty()) kids[0].fail("expected no joint on ground, got <" + kids[0].name() + ">");
-      } else {
-        if (kids.empty())
-          b.fail("expected a joint connecting body '" + name + "' to its parent, got " +
-                 (jw ? "an empty <Joint>" : "no <Joint>"));
-        pending_joints_.emplace_back(kids[0], index);
-      }
+      if (kids.empty())
+        b.fail("expected a joint connecting body '" + name + "' to its parent, got " +
+               (jw ? "an empty <Joint>" : "no <Joint>"));
+      pending_joints_.emplace_back(kids[0], index);
     }
   }
   if (!ground_seen) set.fail("expected a body named 'ground', got none");
+  if (v4)
+    for (const Node& b : model_el.child("components").children("Body")) addBody(b, "/" + b.nameAttr());
+}
+
+int OsimReader::addBody(const Node& b, const std::string& path) {
+  const std::string name = b.nameAttr();
+  if (name.empty()) b.fail("expected a name attribute on <Body>, got none");
+  if (body_index_.count(name)) b.fail("duplicate body name '" + name + "'");
+  const int index = int(m_->bodies.size());
+  m_->bodies.emplace_back();
+  body_nodes_.push_back(b);
+  body_index_[name] = index;
+  body_paths_[path] = index;
+  Body& body = m_->bodies[index];
+  body.name = name;
+  body.mass = b.childDouble("mass", 0.0);
+  if (!std::isfinite(body.mass) || body.mass < 0)
+    b.child("mass").fail("expected a non-negative mass, got " + b.childText("mass"));
+  body.mass_center = b.childVec3("mass_center", Vec3::Zero());
+  body.inertia = readInertia(b);
+  readWrapObjects(b, index);
+  return index;
 }
 
 Mat3 OsimReader::readInertia(const Node& b) {

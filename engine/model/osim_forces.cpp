@@ -63,7 +63,12 @@ class ForceReader {
       } else if (type == "CoordinateActuator") {
         readCoordinateActuator(f);
       } else {
-        m_.ignored.push_back({isDisabled(f) ? type + " (disabled)" : type, f.nameAttr()});
+        IgnoredComponent ic = osim::classifyIgnored(f, "ForceSet");
+        if (isDisabled(f)) {
+          ic.type += " (disabled)";
+          ic.affects_kinematics = false;
+        }
+        m_.ignored.push_back(std::move(ic));
       }
     }
   }

@@ -1,9 +1,11 @@
-// The .osim reader's joints and their coordinates: native joint types, PlanarJoint, CustomJoint's
-// SpatialTransform, and the check that the joints form a tree.
+// The .osim reader's joints and their coordinates: native joint types, PlanarJoint, EllipsoidJoint,
+// ScapulothoracicJoint, CustomJoint's SpatialTransform in its forms since format 10500, and the
+// check that the joints form a tree.
 #include "model/osim_reader_internal.hpp"
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 #include "core/error.hpp"
 #include "core/strings.hpp"
@@ -13,25 +15,85 @@ namespace kneesim::model::osim {
 namespace {
 
 const char* const kJointTypes =
-    "WeldJoint, PinJoint, SliderJoint, BallJoint, FreeJoint, UniversalJoint, GimbalJoint, PlanarJoint or CustomJoint";
+    "WeldJoint, PinJoint, SliderJoint, BallJoint, FreeJoint, UniversalJoint, GimbalJoint, PlanarJoint, EllipsoidJoint, "
+    "ScapulothoracicJoint or CustomJoint";
+
+/// OpenSim 3.x and the 4.0 pre-releases place a joint in its child with location/orientation
+/// (renamed location_in_child/orientation_in_child in 30500) and in its parent with
+/// location_in_parent/orientation_in_parent.
+Pose legacyParentOffset(const Node& j) {
+  return poseFromXYZ(j.childVec3("orientation_in_parent", Vec3::Zero()), j.childVec3("location_in_parent", Vec3::Zero()));
+}
+Pose legacyChildOffset(const Node& j) {
+  const Vec3 r = j.child("orientation_in_child") ? j.childVec3("orientation_in_child", Vec3::Zero())
+                                                  : j.childVec3("orientation", Vec3::Zero());
+  const Vec3 p = j.child("location_in_child") ? j.childVec3("location_in_child", Vec3::Zero())
+                                               : j.childVec3("location", Vec3::Zero());
+  return poseFromXYZ(r, p);
+}
+
+/// Unit axes for the TransformAxis slots a file leaves out, independent of the given ones (as
+/// OpenSim's SpatialTransform::constructIndependentAxes does); their functions are zero.
+void fillMissingAxes(std::array<AxisInfo, 6>& axes, const std::array<bool, 6>& seen) {
+  for (int s = 0; s <= 3; s += 3) {
+    std::array<bool, 3> defined{seen[s], seen[s + 1], seen[s + 2]};
+    for (int k = 0; k < 3; ++k) {
+      if (defined[k]) continue;
+      for (int cand = 0; cand < 3 && !defined[k]; ++cand) {
+        const Vec3 u = Vec3::Unit((k + cand) % 3);
+        bool independent = true;
+        for (int o = 0; o < 3; ++o)
+          if (o != k && defined[o] && axes[s + o].axis.normalized().cross(u).norm() < 1e-5) independent = false;
+        if (independent) {
+          axes[s + k].axis = u;
+          defined[k] = true;
+        }
+      }
+    }
+  }
+}
+
+/// A TransformAxis's element, axis and function (its coordinates are read by the caller: their
+/// element differs between formats).
+void readAxis(const Node& an, AxisInfo& info) {
+  info.node = an;
+  Node ax = an.requireChild("axis");
+  info.axis = ax.toVec3();
+  if (!(info.axis.norm() > 1e-12)) ax.fail("expected a non-zero axis, got '" + ax.text() + "'");
+  if (Node fn = findObjectProperty(an, "function", {"coordinates", "axis", "is_rotation", "coordinate"}))
+    info.function = parseFunction(fn);
+}
 
 }  // namespace
 
-void OsimReader::readJointSet(const Node& model_el) {
-  for (const Node& j : model_el.child("JointSet").child("objects").children()) {
-    const std::string path = "/jointset/" + j.nameAttr();
-    Node pf = j.requireChild("socket_parent_frame"), cf = j.requireChild("socket_child_frame");
-    const auto parent = resolveFrame(pf.text(), path, pf);
-    const auto child = resolveFrame(cf.text(), path, cf);
+void OsimReader::readJointSet(const Node& /*model_el*/) {
+  for (const JointElement& je : joint_elements_) {
+    const Node& j = je.node;
+    Node pf = findSocket(j, {"parent_frame", "parent_body"}), cf = findSocket(j, {"child_frame", "child_body"});
+    if (!pf) j.fail("expected <socket_parent_frame> naming the joint's parent frame, got none");
+    if (!cf) j.fail("expected <socket_child_frame> naming the joint's child frame, got none");
+    const auto parent = resolveFrame(pf.text(), je.path, pf);
+    const auto child = resolveFrame(cf.text(), je.path, cf);
     if (child.first == 0) cf.fail("expected a child frame on a body, got ground ('" + cf.text() + "')");
     if (child.first == parent.first)
-      cf.fail("expected parent and child frames on different bodies, both are on '" +
-              m_->bodies[child.first].name + "'");
+      cf.fail("expected parent and child frames on different bodies, both are on '" + m_->bodies[child.first].name +
+              "'");
     const int ji = readJoint(j, child.first, /*v4=*/true);
     m_->joints[ji].parent_body = parent.first;
-    m_->joints[ji].X_PF = parent.second;
-    m_->joints[ji].X_BM = child.second;
+    // Formats 30500-30516 still offset the joint frames from the connected frames.
+    m_->joints[ji].X_PF = parent.second * legacyParentOffset(j);
+    m_->joints[ji].X_BM = child.second * legacyChildOffset(j);
   }
+}
+
+std::string OsimReader::nameUnnamedJoint(const Node& j, int child) {
+  std::string base = toLower(j.name());
+  std::string name = base;
+  if (joint_names_.count(name)) name = m_->bodies[child].name + "_" + base;
+  for (int k = 2; joint_names_.count(name); ++k) name = m_->bodies[child].name + "_" + base + "_" + std::to_string(k);
+  m_->warnings.push_back(formatLocated(j.where(), "<" + j.name() + "> of body '" + m_->bodies[child].name +
+                                                      "' has no name; it is called '" + name + "'"));
+  return name;
 }
 
 std::vector<ParsedCoordinate> OsimReader::readJointCoordinates(const Node& j) {
@@ -90,8 +152,8 @@ int OsimReader::addCoordinate(const ParsedCoordinate& pc, int joint) {
 /// Reads one joint element whose child body is @p child; returns its index in Model::joints.
 int OsimReader::readJoint(const Node& j, int child, bool v4) {
   const std::string type = j.name();
-  const std::string name = j.nameAttr();
-  if (name.empty()) j.fail("expected a name attribute on <" + type + ">, got none");
+  // OpenSim reads joints without a name (test models of formats 10905 to 30000 have them).
+  const std::string name = j.nameAttr().empty() ? nameUnnamedJoint(j, child) : j.nameAttr();
   if (joint_names_.count(name)) j.fail("duplicate joint name '" + name + "'");
   joint_names_.insert(name);
   joint_nodes_.push_back(j);
@@ -110,9 +172,8 @@ int OsimReader::readJoint(const Node& j, int child, bool v4) {
     }
     if (it->second == child) pb.fail("expected a parent body other than the joint's own body '" + pb.text() + "'");
     jt.parent_body = it->second;
-    jt.X_PF = poseFromXYZ(j.childVec3("orientation_in_parent", Vec3::Zero()),
-                          j.childVec3("location_in_parent", Vec3::Zero()));
-    jt.X_BM = poseFromXYZ(j.childVec3("orientation", Vec3::Zero()), j.childVec3("location", Vec3::Zero()));
+    jt.X_PF = legacyParentOffset(j);
+    jt.X_BM = legacyChildOffset(j);
   }
   const int ji = int(m_->joints.size());
   std::vector<ParsedCoordinate> coords = readJointCoordinates(j);
@@ -167,18 +228,55 @@ int OsimReader::readJoint(const Node& j, int child, bool v4) {
     m_->joints.push_back(jt);
     return ji;
   }
-  if (type == "EllipsoidJoint" || type == "ScapulothoracicJoint" || type == "ConstantCurvatureJoint")
-    j.fail("unsupported joint type '" + type + "' (expected " + kJointTypes + ")");
+  if (type == "EllipsoidJoint" || type == "ScapulothoracicJoint") {
+    const bool scap = type == "ScapulothoracicJoint";
+    const size_t n = scap ? 4 : 3;
+    if (coords.size() != n)
+      j.fail("expected " + std::to_string(n) + " coordinates for a " + type + ", got " + std::to_string(coords.size()));
+    if (jt.reverse) j.child("reverse").fail("expected reverse false for a " + type + ", got true");
+    jt.type = scap ? JointType::Scapulothoracic : JointType::Ellipsoid;
+    readEllipsoidProperties(j, jt);
+    for (size_t k = 0; k < coords.size(); ++k) {
+      const int ci = addCoordinate(coords[k], ji);
+      m_->coordinates[ci].motion_type = R;
+      jt.coordinates.push_back(ci);
+    }
+    m_->joints.push_back(jt);
+    return ji;
+  }
+  if (type == "ConstantCurvatureJoint")
+    j.fail("unsupported joint type '" + type + "' in format " + std::to_string(m_->format_version) + " (expected " +
+           kJointTypes + ")");
   j.fail("unknown joint type '" + type + "' (expected " + kJointTypes + ")");
 }
 
-void OsimReader::readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<ParsedCoordinate>& coords) {
-  Node st = j.requireChild("SpatialTransform");
+void OsimReader::readEllipsoidProperties(const Node& j, Joint& jt) {
+  const char* radii = jt.type == JointType::Scapulothoracic ? "thoracic_ellipsoid_radii_x_y_z" : "radii_x_y_z";
+  Node r = j.requireChild(radii);
+  jt.radii = r.toVec3();
+  if (!(jt.radii.minCoeff() > 0) || !jt.radii.allFinite())
+    r.fail("expected three positive semi-axes (m), got '" + r.text() + "'");
+  if (jt.type != JointType::Scapulothoracic) return;
+  if (Node o = j.child("scapula_winging_axis_origin"); o && !o.text().empty()) {
+    const std::vector<double> v = o.toDoubles();
+    if (v.size() != 2) o.fail("expected 2 numbers (x y in the ellipsoid's joint frame), got " + std::to_string(v.size()));
+    jt.winging_origin = Eigen::Vector2d(v[0], v[1]);
+  }
+  jt.winging_direction = j.childDouble("scapula_winging_axis_direction", 0.0);
+  if (!std::isfinite(jt.winging_direction))
+    j.child("scapula_winging_axis_direction").fail("expected a finite angle (rad), got " +
+                                                   j.childText("scapula_winging_axis_direction"));
+}
+
+void OsimReader::readCustomJointAxes(const Node& j, std::array<AxisInfo, 6>& axes) {
   static const char* const axis_names[6] = {"rotation1",    "rotation2",    "rotation3",
                                             "translation1", "translation2", "translation3"};
-  std::array<AxisInfo, 6> axes;
+  if (Node set = j.child("TransformAxisSet")) return readTransformAxisSet(set, axes);
+  // A SpatialTransform may list fewer than six axes (format 10901 on) or be absent: the others
+  // are OpenSim's defaults, zero functions on independent unit axes.
   std::array<bool, 6> seen{};
-  const std::vector<Node> axis_nodes = st.children("TransformAxis");
+  const Node st = j.child("SpatialTransform");
+  const std::vector<Node> axis_nodes = st ? st.children("TransformAxis") : std::vector<Node>();
   for (size_t k = 0; k < axis_nodes.size(); ++k) {
     const Node& an = axis_nodes[k];
     int a = -1;
@@ -188,29 +286,51 @@ void OsimReader::readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<P
     if (a < 0) {
       if (!an_name.empty())
         an.fail("expected a TransformAxis named rotation1..3 or translation1..3, got '" + an_name + "'");
-      if (k >= 6) an.fail("expected 6 TransformAxis elements, got more");
+      if (k >= 6) an.fail("expected at most 6 TransformAxis elements, got more");
       a = int(k);
     }
     if (seen[a]) an.fail(std::string("duplicate TransformAxis '") + axis_names[a] + "'");
     seen[a] = true;
     AxisInfo& info = axes[a];
-    info.node = an;
+    readAxis(an, info);
     info.coordinate_names = an.child("coordinates").toWords();
-    Node ax = an.requireChild("axis");
-    info.axis = ax.toVec3();
-    if (!(info.axis.norm() > 1e-12)) ax.fail("expected a non-zero axis, got '" + ax.text() + "'");
-    if (Node fn = findObjectProperty(an, "function", {"coordinates", "axis", "is_rotation", "coordinate"}))
-      info.function = parseFunction(fn);
   }
-  for (int a = 0; a < 6; ++a)
-    if (!seen[a]) st.fail(std::string("expected 6 TransformAxis elements, missing '") + axis_names[a] + "'");
+  fillMissingAxes(axes, seen);
+}
+
+// Formats before 10901: <TransformAxisSet> of TransformAxis with <is_rotation>, one <coordinate>,
+// <axis> and a function. Rotations fill rotation1.. in order, translations translation1.., as
+// OpenSim's CustomJoint::updateFromXMLNode converts them.
+void OsimReader::readTransformAxisSet(const Node& set, std::array<AxisInfo, 6>& axes) {
+  std::array<bool, 6> seen{};
+  int next[2] = {0, 3};
+  for (const Node& an : set.child("objects").children("TransformAxis")) {
+    const bool rotation = an.childBool("is_rotation", false);
+    int& slot = next[rotation ? 0 : 1];
+    if (slot >= (rotation ? 3 : 6))
+      an.fail(std::string("expected at most 3 ") + (rotation ? "rotation" : "translation") + " axes, got more");
+    AxisInfo& info = axes[slot];
+    seen[slot] = true;
+    ++slot;
+    readAxis(an, info);
+    if (Node c = an.child("coordinate"); c && !c.text().empty()) info.coordinate_names = {c.text()};
+  }
+  fillMissingAxes(axes, seen);
+}
+
+void OsimReader::readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<ParsedCoordinate>& coords) {
+  static const char* const axis_names[6] = {"rotation1",    "rotation2",    "rotation3",
+                                            "translation1", "translation2", "translation3"};
+  std::array<AxisInfo, 6> axes;
+  readCustomJointAxes(j, axes);
   // OpenSim refuses collinear rotation or translation axes (CustomJoint::extendFinalizeFromProperties).
   for (int s = 0; s <= 3; s += 3)
     for (int p = 0; p < 3; ++p)
       for (int q = p + 1; q < 3; ++q)
         if (axes[s + p].axis.normalized().cross(axes[s + q].axis.normalized()).norm() < 1e-5)
-          axes[s + q].node.fail(std::string("expected independent axes, but '") + axis_names[s + q] +
-                                "' is collinear with '" + axis_names[s + p] + "'");
+          (axes[s + q].node ? axes[s + q].node : j)
+              .fail(std::string("expected independent axes, but '") + axis_names[s + q] + "' is collinear with '" +
+                    axis_names[s + p] + "'");
 
   if (coords.empty()) {
     // OpenSim 4 builds missing coordinates from the transform, in order of first appearance.

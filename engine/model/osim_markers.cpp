@@ -8,9 +8,13 @@ namespace kneesim::model::osim {
 
 void OsimReader::readMarkers(const Node& model_el, bool v4) {
   std::set<std::string> names;
-  for (const Node& mk : model_el.child("MarkerSet").child("objects").children()) {
+  std::vector<std::pair<Node, std::string>> items;  // element, component path
+  for (const Node& mk : model_el.child("MarkerSet").child("objects").children())
+    items.emplace_back(mk, "/markerset/" + mk.nameAttr());
+  for (const Node& mk : model_el.child("components").children("Marker")) items.emplace_back(mk, "/" + mk.nameAttr());
+  for (const auto& [mk, path] : items) {
     if (mk.name() != "Marker") {
-      m_->ignored.push_back({mk.name(), mk.nameAttr()});
+      ignore(mk, "MarkerSet");
       continue;
     }
     Marker marker;
@@ -18,8 +22,8 @@ void OsimReader::readMarkers(const Node& model_el, bool v4) {
     if (marker.name.empty()) mk.fail("expected a name attribute on <Marker>, got none");
     if (!names.insert(marker.name).second) mk.fail("duplicate marker name '" + marker.name + "'");
     const Vec3 location = mk.childVec3("location", Vec3::Zero());
-    if (Node pf = mk.child("socket_parent_frame"); pf && v4) {
-      const auto frame = resolveFrame(pf.text(), "/markerset/" + marker.name, pf);
+    if (Node pf = findSocket(mk, {"parent_frame"}); pf && v4) {
+      const auto frame = resolveFrame(pf.text(), path, pf);
       marker.body = frame.first;
       marker.p_BM = frame.second * location;  // offset frames are expressed in the body frame
     } else {

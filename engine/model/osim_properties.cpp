@@ -110,4 +110,48 @@ std::string joinPath(const std::vector<std::string>& parts) {
   return out.empty() ? "/" : out;
 }
 
+Node findSocket(const Node& owner, std::initializer_list<const char*> names) {
+  for (const char* name : names) {
+    const std::string n(name);
+    if (Node s = owner.child(("socket_" + n).c_str())) return s;
+    if (Node s = owner.child(("connector_" + n + "_connectee_name").c_str())) return s;
+    for (const Node& c : owner.child("connectors").children())
+      if (c.nameAttr() == n) return c.requireChild("connectee_name");
+  }
+  return Node();
+}
+
+IgnoredComponent classifyIgnored(const Node& el, const std::string& set_tag) {
+  IgnoredComponent out{el.name(), el.nameAttr()};
+  const std::string& t = out.type;
+  auto has = [&](const char* part) { return t.find(part) != std::string::npos; };
+  if (has("Ligament")) {
+    out.category = "ligament";
+  } else if (set_tag == "ContactGeometrySet" || startsWith(t, "Contact") || endsWith(t, "ContactMesh")) {
+    out.category = "contact geometry";  // shapes only; the forces between them are what pose a model
+  } else if (has("Contact") || t == "HuntCrossleyForce" || t == "ElasticFoundationForce" ||
+             t == "SmoothSphereHalfSpaceForce") {
+    out.category = "contact";
+  } else if (endsWith(t, "Muscle") || has("Muscle_Deprecated")) {
+    out.category = "muscle";
+  } else if (set_tag == "ConstraintSet" || endsWith(t, "Constraint")) {
+    out.category = "constraint";
+  } else if (startsWith(t, "Wrap")) {
+    out.category = "wrap object";
+  } else if (set_tag == "ControllerSet" || endsWith(t, "Controller")) {
+    out.category = "controller";
+  } else if (set_tag == "ProbeSet" || endsWith(t, "Probe")) {
+    out.category = "probe";
+  } else if (set_tag == "ForceSet" || endsWith(t, "Force") || endsWith(t, "Actuator") || has("Bushing") ||
+             has("Spring")) {
+    out.category = "force";
+  }
+  // A constraint left out moves the bodies away from where OpenSim puts them; a model posed by
+  // ligaments and contact (a JAM knee) has coordinates that only those forces determine.
+  const bool disabled = el.childBool("isDisabled", false) || !el.childBool("isEnforced", true);
+  out.affects_kinematics =
+      out.category == "ligament" || out.category == "contact" || (out.category == "constraint" && !disabled);
+  return out;
+}
+
 }  // namespace kneesim::model::osim

@@ -47,7 +47,9 @@ std::shared_ptr<Model> OsimReader::read() {
                                                           "' ignored: OpenSim reads every length in the file as metres"));
   }
 
-  const bool v4 = bool(model_el.child("JointSet"));
+  // OpenSim 4 layouts (and the 4.0 pre-releases, 30500 on) have a JointSet or a Ground; older
+  // ones nest each joint in its child body.
+  const bool v4 = bool(model_el.child("JointSet")) || bool(model_el.child("Ground"));
   readBodies(model_el, v4);
   if (v4) {
     registerFrames(model_el);
@@ -73,14 +75,19 @@ std::shared_ptr<Model> OsimReader::read() {
 void OsimReader::readIgnoredSets(const Node& model_el) {
   static const std::set<std::string> handled = {"BodySet", "JointSet", "ConstraintSet", "MarkerSet",
                                                 "ForceSet"};
+  static const std::set<std::string> frames = {"PhysicalOffsetFrame", "Station", "StationDefinedFrame"};
   for (const Node& s : model_el.children()) {
     const std::string tag = s.name();
     if (!endsWith(tag, "Set") || handled.count(tag)) continue;
     for (const Node& o : s.child("objects").children()) {
-      if (tag == "ComponentSet" && o.name() == "PhysicalOffsetFrame") continue;
-      m_->ignored.push_back({o.name(), o.nameAttr()});
+      if (tag == "ComponentSet" && frames.count(o.name())) continue;
+      ignore(o, tag);
     }
   }
+}
+
+void OsimReader::ignore(const Node& item, const std::string& set_tag) {
+  m_->ignored.push_back(classifyIgnored(item, set_tag));
 }
 
 }  // namespace osim

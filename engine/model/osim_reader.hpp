@@ -1,16 +1,18 @@
 #pragma once
-// Reader for OpenSim model files (.osim), document versions 20302 to 4xxxx.
+// Reader for OpenSim model files (.osim), document versions 10500 to 40600 (docs/models.md).
 //
-// Both layouts are read: OpenSim 2.x/3.x (joints nested in their child body, parent_body,
-// location_in_parent, orientation_in_parent, location, orientation) and OpenSim 4.x (JointSet,
-// PhysicalOffsetFrames, sockets). Lengths are taken as metres and angles as radians, which is
-// what OpenSim itself does with every model file; a <length_units> other than metres is kept
-// as a warning on the model rather than converted.
+// The layouts OpenSim 4.x reads: joints nested in their child body (parent_body,
+// location_in_parent, orientation_in_parent, location, orientation; up to 30000), the 4.0
+// pre-releases' JointSet with <connectors> and location_in_child (30500-30516), and OpenSim 4's
+// JointSet with PhysicalOffsetFrames and sockets, bodies and joints also in the model's
+// <components>. Lengths are taken as metres and angles as radians, which is what OpenSim itself
+// does with every model file; a <length_units> other than metres is kept as a warning on the
+// model rather than converted.
 //
 // Wrap objects, muscles of the types kneesim evaluates and coordinate actuators are read too
-// (model/osim_forces.hpp). Components kneesim does not simulate (other forces, contact
-// geometry, controllers, probes, non-coupler constraints, disabled couplers) are listed in
-// Model::ignored. Unknown joint or function types are errors.
+// (model/osim_forces.hpp). Components kneesim does not simulate (other forces, ligaments,
+// contact, controllers, probes, constraints of other types, disabled constraints) are listed in
+// Model::ignored with their category. Unknown joint or function types are errors.
 
 #include <string>
 

@@ -10,6 +10,7 @@
 //   osim_markers.cpp      markers
 //   osim_forces.cpp       wrap objects, muscles with their paths, coordinate actuators
 
+#include <array>
 #include <initializer_list>
 #include <map>
 #include <memory>
@@ -53,6 +54,17 @@ std::vector<std::string> splitPath(const std::string& path);
 /// "/a/b" from {"a", "b"}; "/" from none.
 std::string joinPath(const std::vector<std::string>& parts);
 
+/// The element holding the path a socket of @p owner names, in any of the forms OpenSim has
+/// written: <socket_NAME> (4.0 on), <connector_NAME_connectee_name> (30505 to 30516) and
+/// <connectors><Connector_T_ name="NAME"><connectee_name> (30500 to 30504). Each name in
+/// @p names is tried in turn (joints of 30501 call their parent "parent_body"). Returns a null
+/// Node when the owner has none of them.
+Node findSocket(const Node& owner, std::initializer_list<const char*> names);
+
+/// An IgnoredComponent for element @p el found in set @p set_tag ("ForceSet", "ConstraintSet",
+/// "components", ...): its type, name, category and whether it affects kinematics.
+IgnoredComponent classifyIgnored(const Node& el, const std::string& set_tag);
+
 // ----------------------------------------------------------------------------- reader state
 /// A coordinate as read, before its joint is known to accept it.
 struct ParsedCoordinate {
@@ -70,12 +82,19 @@ struct AxisInfo {
   FunctionPtr function;  // null when the file gives none
 };
 
-/// A PhysicalOffsetFrame (OpenSim 4.x), resolved lazily to a body and a pose in that body.
+/// A frame or a station (OpenSim 4.x), resolved lazily to a body and a pose in that body: a
+/// PhysicalOffsetFrame (parent frame and offset), a StationDefinedFrame (four stations) or a
+/// Station (parent frame and location; its pose is a translation).
 struct OffsetFrame {
+  enum class Kind { Offset, StationDefined, Station } kind = Kind::Offset;
   Node node;
-  std::string path;        // absolute component path of the frame
-  std::string parent_ref;  // socket_parent as written
+  std::string path;        // absolute component path
+  std::string parent_ref;  // socket_parent (socket_parent_frame of a Station) as written
+  Node parent_node;        // the element holding parent_ref, for errors
   Pose X_PF = Pose::Identity();
+  std::array<std::string, 4> station_refs;  // StationDefined: point_a, point_b, point_c, origin_point
+  std::array<Node, 4> station_nodes;
+  std::string ab_axis = "+x", ab_x_ac_axis = "+y";  // StationDefined axis mapping
   int state = 0;  // 0 unresolved, 1 being resolved, 2 resolved
   int body = -1;
   Pose X_BF = Pose::Identity();
@@ -85,6 +104,12 @@ struct OffsetFrame {
 struct FrameEntry {
   int body = -1;            // >= 0 for ground and bodies
   std::string offset_path;  // non-empty for offset frames
+};
+
+/// A joint element of a 4.x layout and its component path.
+struct JointElement {
+  Node node;
+  std::string path;
 };
 
 /// Reads one OpenSim document into a Model. Each member is implemented in the file of its job
@@ -100,8 +125,12 @@ class OsimReader {
   // osim_reader.cpp
   void readIgnoredSets(const Node& model_el);
 
+  /// Adds @p item to Model::ignored (classified by classifyIgnored).
+  void ignore(const Node& item, const std::string& set_tag);
+
   // osim_bodies.cpp
   void readBodies(const Node& model_el, bool v4);
+  int addBody(const Node& b, const std::string& path);
   Mat3 readInertia(const Node& b);
   void readWrapObjects(const Node& b, int body);
   void addMesh(int body, const Node& where, const std::string& file, const Vec3& scale, const Pose& X_BG);
@@ -110,9 +139,16 @@ class OsimReader {
   void attachMeshes4();
 
   // osim_frames.cpp
+  /// A new entry of frames_ at @p path (an error if taken) of OffsetFrame::Kind @p kind, its
+  /// parent read from socket @p parent_socket unless null.
+  OffsetFrame& addFrameEntry(const Node& n, const std::string& path, int kind, const char* parent_socket);
   void registerFrame(const Node& f, const std::string& path);
   void registerComponents(const Node& owner, const std::string& owner_path);
   void registerFrames(const Node& model_el);
+  void registerStation(const Node& st, const std::string& path);
+  void registerStationDefinedFrame(const Node& f, const std::string& path);
+  /// Resolves a StationDefinedFrame: its four stations must share a body.
+  void resolveStationDefined(OffsetFrame& f);
   /// Resolves the frame named by @p ref (absolute, or relative to the component at
   /// @p owner_path) to a body and the frame's pose in it.
   std::pair<int, Pose> resolveFrame(const std::string& ref, const std::string& owner_path, const Node& where);
@@ -121,6 +157,11 @@ class OsimReader {
 
   // osim_joints.cpp
   void readJointSet(const Node& model_el);
+  /// A name for a joint the file leaves unnamed (OpenSim accepts them), unique among joints.
+  std::string nameUnnamedJoint(const Node& j, int child);
+  void readCustomJointAxes(const Node& j, std::array<AxisInfo, 6>& axes);
+  void readTransformAxisSet(const Node& set, std::array<AxisInfo, 6>& axes);
+  void readEllipsoidProperties(const Node& j, Joint& jt);
   std::vector<ParsedCoordinate> readJointCoordinates(const Node& j);
   int addCoordinate(const ParsedCoordinate& pc, int joint);
   /// Reads one joint element whose child body is @p child; returns its index in Model::joints.
@@ -132,6 +173,10 @@ class OsimReader {
   // osim_constraints.cpp
   int requireCoordinate(const Node& where, const std::string& n);
   void readConstraints(const Node& model_el);
+  void readCoupler(const Node& c);
+  /// PointConstraint, PointOnLineConstraint, ConstantDistanceConstraint or WeldConstraint at
+  /// component path @p path (relative socket paths start there).
+  void readBodyConstraint(const Node& c, const std::string& path);
 
   // osim_markers.cpp
   void readMarkers(const Node& model_el, bool v4);
@@ -150,6 +195,8 @@ class OsimReader {
   std::vector<Node> joint_nodes_;  // parallel to Model::joints until finalize()
   std::vector<std::pair<Node, int>> pending_joints_;
   std::map<std::string, OffsetFrame> frames_;
+  std::map<std::string, int> body_paths_;  // component path of each body ("/bodyset/b", "/b")
+  std::vector<JointElement> joint_elements_;  // 4.x joints: JointSet and <components>
 };
 
 }  // namespace kneesim::model::osim

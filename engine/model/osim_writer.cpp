@@ -191,20 +191,6 @@ class Writer {
     line(2, "</BodySet>");
   }
 
-  static const char* jointTag(JointType t) {
-    switch (t) {
-      case JointType::Weld: return "WeldJoint";
-      case JointType::Pin: return "PinJoint";
-      case JointType::Slider: return "SliderJoint";
-      case JointType::Ball: return "BallJoint";
-      case JointType::Free: return "FreeJoint";
-      case JointType::Universal: return "UniversalJoint";
-      case JointType::Gimbal: return "GimbalJoint";
-      case JointType::Custom: return "CustomJoint";
-    }
-    return "CustomJoint";
-  }
-
   void writeFunction(int indent, const Function& f, const std::string& property) {
     const std::string open = "<" + f.getTypeName() + " name=\"" + property + "\">";
     const std::string close = "</" + f.getTypeName() + ">";
@@ -294,7 +280,7 @@ class Writer {
     line(3, "<objects>");
     for (int ji : calcFileOrder()) {
       const Joint& j = m_.joints[ji];
-      const std::string tag = jointTag(j.type);
+      const std::string tag = getJointTypeName(j.type);
       const std::string parent_frame = m_.bodies[j.parent_body].name + "_offset";
       const std::string child_frame = m_.bodies[j.child_body].name + "_offset";
       line(4, "<" + tag + " name=\"" + xml::escape(j.name) + "\">");
@@ -326,6 +312,12 @@ class Writer {
         }
         line(5, "</SpatialTransform>");
       }
+      if (j.type == JointType::Ellipsoid) element(5, "radii_x_y_z", vec3(j.radii));
+      if (j.type == JointType::Scapulothoracic) {
+        element(5, "thoracic_ellipsoid_radii_x_y_z", vec3(j.radii));
+        element(5, "scapula_winging_axis_origin", numbers({j.winging_origin.x(), j.winging_origin.y()}));
+        element(5, "scapula_winging_axis_direction", formatExact(j.winging_direction));
+      }
       line(4, "</" + tag + ">");
     }
     line(3, "</objects>");
@@ -333,8 +325,41 @@ class Writer {
     line(2, "</JointSet>");
   }
 
+  // A WeldConstraint links two frames it owns; the other constraints name bodies and points.
+  void writeBodyConstraint(int indent, const Constraint& k) {
+    const std::string tag = getConstraintTypeName(k.type);
+    line(indent, "<" + tag + " name=\"" + xml::escape(k.name) + "\">");
+    element(indent + 1, "isEnforced", "true");
+    switch (k.type) {
+      case ConstraintType::Point:
+      case ConstraintType::ConstantDistance:
+        element(indent + 1, "socket_body_1", xml::escape(bodyPath(k.body1)));
+        element(indent + 1, "socket_body_2", xml::escape(bodyPath(k.body2)));
+        element(indent + 1, "location_body_1", vec3(k.X_B1F1.translation()));
+        element(indent + 1, "location_body_2", vec3(k.X_B2F2.translation()));
+        if (k.type == ConstraintType::ConstantDistance) element(indent + 1, "constant_distance", formatExact(k.distance));
+        break;
+      case ConstraintType::PointOnLine:
+        element(indent + 1, "socket_line_body", xml::escape(bodyPath(k.body1)));
+        element(indent + 1, "socket_follower_body", xml::escape(bodyPath(k.body2)));
+        element(indent + 1, "line_direction_vec", vec3(k.X_B1F1.linear().col(0)));
+        element(indent + 1, "point_on_line", vec3(k.X_B1F1.translation()));
+        element(indent + 1, "point_on_follower", vec3(k.X_B2F2.translation()));
+        break;
+      case ConstraintType::Weld:
+        element(indent + 1, "socket_frame1", "frame1");
+        element(indent + 1, "socket_frame2", "frame2");
+        line(indent + 1, "<frames>");
+        writeOffsetFrame(indent + 2, "frame1", bodyPath(k.body1), k.X_B1F1);
+        writeOffsetFrame(indent + 2, "frame2", bodyPath(k.body2), k.X_B2F2);
+        line(indent + 1, "</frames>");
+        break;
+    }
+    line(indent, "</" + tag + ">");
+  }
+
   void writeConstraints() {
-    if (m_.couplers.empty()) return;
+    if (m_.couplers.empty() && m_.constraints.empty()) return;
     line(2, "<ConstraintSet name=\"constraintset\">");
     line(3, "<objects>");
     for (const CoordinateCoupler& cc : m_.couplers) {
@@ -348,6 +373,7 @@ class Writer {
       element(5, "scale_factor", formatExact(cc.scale_factor));
       line(4, "</CoordinateCouplerConstraint>");
     }
+    for (const Constraint& k : m_.constraints) writeBodyConstraint(4, k);
     line(3, "</objects>");
     line(3, "<groups />");
     line(2, "</ConstraintSet>");

@@ -4,7 +4,8 @@
 // The layout is OpenSim 4.0's: a <Ground>, a BodySet of <Body> (mass, mass_center, inertia
 // "Ixx Iyy Izz Ixy Ixz Iyz" about the centre of mass), a JointSet whose joints own their
 // PhysicalOffsetFrames and name them in socket_parent_frame/socket_child_frame, coordinates
-// inside their joint, a ConstraintSet of CoordinateCouplerConstraints, and a MarkerSet whose
+// inside their joint, a ConstraintSet of CoordinateCouplerConstraints and Point, PointOnLine,
+// ConstantDistance and Weld constraints (a WeldConstraint owns its two frames), and a MarkerSet whose
 // markers name their body by component path (/bodyset/<body>). Object-valued properties are
 // written as <Type name="property">, as OpenSim 4 writes them. readOsim() reads the result back
 // into an identical model (same bodies, joints, frames, functions, couplers, markers, meshes).

@@ -509,6 +509,11 @@ class UrdfWriter {
         moving(Step::Revolute, Vec3::UnitY(), q[1]);
         moving(Step::Revolute, Vec3::UnitZ(), q[2]);
         break;
+      case JointType::Ellipsoid:
+      case JointType::Scapulothoracic:
+        throw InputError({m_.source_file, 0, "joint[" + jt.name + "]"},
+                         std::string("expected a joint URDF can express, got a ") + getJointTypeName(jt.type) +
+                             " (a point sliding on an ellipsoid)");
       case JointType::Custom: {
         // X_FM = translation(sum f_i a_i, in F) then R1 R2 R3; translations commute.
         static const char* const names[6] = {"rotation1",    "rotation2",    "rotation3",
@@ -655,6 +660,8 @@ class UrdfWriter {
       }
       uj.mimic_joint = main_joint_[c];
     }
+    for (const Constraint& k : m_.constraints)
+      note(std::string(getConstraintTypeName(k.type)) + " '" + k.name + "' dropped: URDF has no closed loops");
     for (const CoordinateCoupler& cc : m_.couplers) {
       double slope, icpt;
       const bool linear = cc.independents.size() == 1 && findLinearForm(*cc.function, slope, icpt);

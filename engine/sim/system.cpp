@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 
 #include "core/error.hpp"
@@ -309,16 +310,21 @@ struct System::Impl {
   SimTK::SimbodyMatterSubsystem matter{system};
   SimTK::GeneralForceSubsystem forces{system};
   std::vector<SimTK::MobilizedBodyIndex> mobod;  // per model body
+  // Per model coordinate: the mobilized body whose mobilizer it is (the child body's, except in a
+  // ScapulothoracicJoint, which chains three) and its q's index in that mobilizer.
+  std::vector<SimTK::MobilizedBodyIndex> coord_mobod;
+  std::vector<int> coord_mq;
   std::vector<SimTK::ConstraintIndex> couplers;  // per model coupler
+  std::vector<SimTK::ConstraintIndex> constraints;  // per Model::constraints entry
   std::vector<int> q_index;  // per model coordinate: index into State Q
   std::vector<int> u_index;  // per model coordinate: index into State U
   int nq = 0, nu = 0;
   // Station Jacobians: for each model body, the coordinates of the joint that moves it and the
-  // body's parent; coordinates whose mobilizer has qdot != u (Gimbal, Ball, Free).
+  // body's parent; coordinates whose mobilizer has qdot != u (Gimbal, Ball, Free, Ellipsoid).
   std::vector<std::vector<int>> body_coords;
   std::vector<int> parent_body;
-  std::vector<int> n_coords;   // coordinates whose q differs from u, grouped by joint
-  std::vector<int> n_joint;    // their joint
+  std::vector<int> n_coords;   // coordinates whose q differs from u, grouped by mobilizer
+  std::vector<int> n_group;    // their mobilized body (index), one group per mobilizer
   SimTK::State default_state;  // realised to Model stage with Euler angles
 };
 
@@ -326,7 +332,7 @@ struct Workspace::Impl {
   SimTK::State state;
   // Station-Jacobian scratch, sized once at creation.
   std::vector<Eigen::Matrix<double, 6, 1>> H;  // per coordinate: (w, v) of its body for u = 1
-  std::vector<Eigen::Vector3d> p_GB;           // per body: origin in ground
+  std::vector<Eigen::Vector3d> p_GB;           // per coordinate: its mobilized body's origin in ground
   SimTK::Vector q_unit, u_out;                 // N^-1 columns for qdot != u mobilizers
   Eigen::Matrix<double, Eigen::Dynamic, 6> block;  // one joint's columns while converting
   Eigen::Matrix<double, 6, 6> NInv;
@@ -348,6 +354,8 @@ System::System(model::ModelPtr model, SystemOptions options)
   SimTK::Force::Gravity(d.forces, d.matter, toSimTK(m.gravity));
   d.mobod.assign(m.bodies.size(), SimTK::MobilizedBodyIndex());
   d.mobod[0] = SimTK::GroundIndex;
+  d.coord_mobod.assign(m.coordinates.size(), SimTK::MobilizedBodyIndex());
+  d.coord_mq.assign(m.coordinates.size(), 0);
 
   for (const model::Joint& jt : m.joints) {
     const SourceLocation where{m.source_file, 0, "joint[" + jt.name + "]"};
@@ -398,6 +406,30 @@ System::System(model::ModelPtr model, SystemOptions options)
           idx = SimTK::MobilizedBody::Free(parent, X_PF, body, X_BM, dir).getMobilizedBodyIndex();
           qdot_is_u_ = false;
           break;
+        case JointType::Ellipsoid:
+          idx = SimTK::MobilizedBody::Ellipsoid(parent, X_PF, body, X_BM, toSimTK(jt.radii)).getMobilizedBodyIndex();
+          qdot_is_u_ = false;
+          break;
+        case JointType::Scapulothoracic: {
+          // OpenSim's ScapulothoracicJoint: an Ellipsoid mobilizer (abduction, elevation, upward
+          // rotation) whose F frame is the parent frame turned pi/2 about z, with the radii
+          // swapped to match (x, y -> y, x); a Pin (winging) about an axis in the ellipsoid's
+          // tangent plane; a Weld to the scapula's joint frame. Both intermediate bodies are massless.
+          const SimTK::Transform R_z90(SimTK::Rotation(SimTK::Pi / 2, SimTK::ZAxis), SimTK::Vec3(0));
+          SimTK::MobilizedBody::Ellipsoid ellipsoid(parent, X_PF * R_z90, SimTK::Body::Massless(), R_z90,
+                                                    SimTK::Vec3(jt.radii.y(), jt.radii.x(), jt.radii.z()));
+          const double a = jt.winging_direction;
+          const SimTK::Transform W(SimTK::Rotation(SimTK::UnitVec3(-std::sin(a), std::cos(a), 0), SimTK::ZAxis),
+                                   SimTK::Vec3(jt.winging_origin.x(), jt.winging_origin.y(), 0));
+          SimTK::MobilizedBody::Pin winging(ellipsoid, W, SimTK::Body::Massless(), W);
+          idx = SimTK::MobilizedBody::Weld(winging, SimTK::Transform(), body, X_BM).getMobilizedBodyIndex();
+          for (size_t k = 0; k < jt.coordinates.size(); ++k) {
+            d.coord_mobod[jt.coordinates[k]] = k < 3 ? ellipsoid.getMobilizedBodyIndex() : winging.getMobilizedBodyIndex();
+            d.coord_mq[jt.coordinates[k]] = k < 3 ? int(k) : 0;
+          }
+          qdot_is_u_ = false;
+          break;
+        }
         case JointType::Custom: {
           const int nc = int(jt.coordinates.size());
           std::vector<const SimTK::Function*> functions;
@@ -458,6 +490,11 @@ System::System(model::ModelPtr model, SystemOptions options)
       throw InputError(where, std::string("Simbody rejected the joint: ") + e.what());
     }
     d.mobod[jt.child_body] = idx;
+    if (jt.type != JointType::Scapulothoracic)
+      for (size_t k = 0; k < jt.coordinates.size(); ++k) {
+        d.coord_mobod[jt.coordinates[k]] = idx;
+        d.coord_mq[jt.coordinates[k]] = int(k);
+      }
   }
 
   // Couplers become Simbody constraints; IK enforces them by elimination (see ik/solver.cpp).
@@ -465,15 +502,40 @@ System::System(model::ModelPtr model, SystemOptions options)
     std::vector<SimTK::MobilizedBodyIndex> bodies;
     std::vector<SimTK::MobilizerQIndex> qs;
     auto add = [&](int coord) {
-      const model::Coordinate& c = m.coordinates[coord];
-      bodies.push_back(d.mobod[m.joints[c.joint].child_body]);
-      qs.push_back(SimTK::MobilizerQIndex(c.index_in_joint));
+      bodies.push_back(d.coord_mobod[coord]);
+      qs.push_back(SimTK::MobilizerQIndex(d.coord_mq[coord]));
     };
     for (int c : cc.independents) add(c);
     add(cc.dependent);
     SimTK::Constraint::CoordinateCoupler con(
         d.matter, new CouplerResidual(cc.function, cc.scale_factor, int(cc.independents.size())), bodies, qs);
     d.couplers.push_back(con.getConstraintIndex());
+  }
+
+  // The model's other constraints as Simbody's: IK enforces them itself (ik/constraint_terms.cpp);
+  // these give Simbody's own position errors to check it against.
+  for (const model::Constraint& k : m.constraints) {
+    SimTK::MobilizedBody& b1 = d.matter.updMobilizedBody(d.mobod[k.body1]);
+    SimTK::MobilizedBody& b2 = d.matter.updMobilizedBody(d.mobod[k.body2]);
+    const SimTK::Vec3 p1 = toSimTK(Eigen::Vector3d(k.X_B1F1.translation()));
+    const SimTK::Vec3 p2 = toSimTK(Eigen::Vector3d(k.X_B2F2.translation()));
+    switch (k.type) {
+      case model::ConstraintType::Point:
+        d.constraints.push_back(SimTK::Constraint::Ball(b1, p1, b2, p2).getConstraintIndex());
+        break;
+      case model::ConstraintType::ConstantDistance:
+        d.constraints.push_back(SimTK::Constraint::Rod(b1, p1, b2, p2, k.distance).getConstraintIndex());
+        break;
+      case model::ConstraintType::PointOnLine:
+        d.constraints.push_back(SimTK::Constraint::PointOnLine(b1, SimTK::UnitVec3(toSimTK(Eigen::Vector3d(k.X_B1F1.linear().col(0)))),
+                                                               p1, b2, p2)
+                                    .getConstraintIndex());
+        break;
+      case model::ConstraintType::Weld:
+        d.constraints.push_back(
+            SimTK::Constraint::Weld(b1, toSimTK(k.X_B1F1), b2, toSimTK(k.X_B2F2)).getConstraintIndex());
+        break;
+    }
   }
 
   try {
@@ -489,17 +551,16 @@ System::System(model::ModelPtr model, SystemOptions options)
   d.q_index.resize(m.coordinates.size());
   d.u_index.resize(m.coordinates.size());
   for (size_t i = 0; i < m.coordinates.size(); ++i) {
-    const model::Coordinate& c = m.coordinates[i];
-    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.mobod[m.joints[c.joint].child_body]);
-    KNEESIM_CHECK(c.index_in_joint < mb.getNumQ(d.default_state), "coordinate beyond its mobilizer's q");
-    d.q_index[i] = int(mb.getFirstQIndex(d.default_state)) + c.index_in_joint;
-    d.u_index[i] = int(mb.getFirstUIndex(d.default_state)) + c.index_in_joint;
+    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.coord_mobod[i]);
+    KNEESIM_CHECK(d.coord_mq[i] < mb.getNumQ(d.default_state), "coordinate beyond its mobilizer's q");
+    d.q_index[i] = int(mb.getFirstQIndex(d.default_state)) + d.coord_mq[i];
+    d.u_index[i] = int(mb.getFirstUIndex(d.default_state)) + d.coord_mq[i];
   }
   // With Euler angles a Ball or Free mobilizer uses 3 of the 4 rotation q slots Simbody keeps
   // for its quaternion, so State::getNQ() may exceed the coordinates; the q in use must not.
   int nq_in_use = 0;
-  for (const model::Joint& jt : m.joints)
-    nq_in_use += d.matter.getMobilizedBody(d.mobod[jt.child_body]).getNumQ(d.default_state);
+  for (SimTK::MobilizedBodyIndex b(1); b < d.matter.getNumBodies(); ++b)
+    nq_in_use += d.matter.getMobilizedBody(b).getNumQ(d.default_state);
   KNEESIM_CHECK(nq_in_use == int(m.coordinates.size()),
                 "Simbody uses " + std::to_string(nq_in_use) + " q but the model has " +
                     std::to_string(m.coordinates.size()) + " coordinates");
@@ -510,11 +571,13 @@ System::System(model::ModelPtr model, SystemOptions options)
     const model::Joint& jt = m.joints[j];
     d.body_coords[jt.child_body] = jt.coordinates;
     d.parent_body[jt.child_body] = jt.parent_body;
-    const bool q_is_u = jt.type != JointType::Gimbal && jt.type != JointType::Ball && jt.type != JointType::Free;
+    const bool q_is_u = jt.type != JointType::Gimbal && jt.type != JointType::Ball && jt.type != JointType::Free &&
+                        jt.type != JointType::Ellipsoid && jt.type != JointType::Scapulothoracic;
     if (!q_is_u)
-      for (int c : jt.coordinates) {
-        d.n_coords.push_back(c);
-        d.n_joint.push_back(int(j));
+      for (size_t k = 0; k < jt.coordinates.size(); ++k) {
+        if (jt.type == JointType::Scapulothoracic && k == 3) continue;  // the winging Pin has qdot = u
+        d.n_coords.push_back(jt.coordinates[k]);
+        d.n_group.push_back(int(d.coord_mobod[jt.coordinates[k]]));
       }
   }
   d.system.realize(d.default_state, SimTK::Stage::Position);
@@ -524,7 +587,7 @@ std::unique_ptr<Workspace> System::createWorkspace() const {
   auto impl = std::make_unique<Workspace::Impl>();
   impl->state = impl_->default_state;
   impl->H.assign(model_->coordinates.size(), Eigen::Matrix<double, 6, 1>::Zero());
-  impl->p_GB.assign(model_->bodies.size(), Eigen::Vector3d::Zero());
+  impl->p_GB.assign(model_->coordinates.size(), Eigen::Vector3d::Zero());
   impl->q_unit.resize(impl_->nq);
   impl->u_out.resize(impl_->nu);
   impl->NInv.setZero();
@@ -574,29 +637,25 @@ void System::calcStationJacobian(Workspace& ws, const std::vector<int>& bodies,
   KNEESIM_CHECK(int(stations.size()) == n && J.rows() == 3 * n && J.cols() == getNumCoordinates(),
                 "station Jacobian sizes do not match");
   for (size_t c = 0; c < m.coordinates.size(); ++c) {
-    const model::Coordinate& co = m.coordinates[c];
-    const SimTK::SpatialVec H = d.matter.getMobilizedBody(d.mobod[m.joints[co.joint].child_body])
-                                    .getHCol(w.state, SimTK::MobilizerUIndex(co.index_in_joint));
+    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.coord_mobod[c]);
+    const SimTK::SpatialVec H = mb.getHCol(w.state, SimTK::MobilizerUIndex(d.coord_mq[c]));
     w.H[c] << H[0][0], H[0][1], H[0][2], H[1][0], H[1][1], H[1][2];
-  }
-  for (size_t b = 1; b < m.bodies.size(); ++b) {
-    const SimTK::Vec3& p = d.matter.getMobilizedBody(d.mobod[b]).getBodyOriginLocation(w.state);
-    w.p_GB[b] = Eigen::Vector3d(p[0], p[1], p[2]);
+    const SimTK::Vec3& p = mb.getBodyOriginLocation(w.state);
+    w.p_GB[c] = Eigen::Vector3d(p[0], p[1], p[2]);
   }
   J.setZero();
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d p_S = findStationLocation(ws, bodies[i], stations[i]);
-    for (int a = bodies[i]; a > 0; a = d.parent_body[a]) {
-      const Eigen::Vector3d r = p_S - w.p_GB[a];
-      for (int c : d.body_coords[a]) J.block<3, 1>(3 * i, c) = w.H[c].head<3>().cross(r) + w.H[c].tail<3>();
-    }
+    for (int a = bodies[i]; a > 0; a = d.parent_body[a])
+      for (int c : d.body_coords[a])
+        J.block<3, 1>(3 * i, c) = w.H[c].head<3>().cross(p_S - w.p_GB[c]) + w.H[c].tail<3>();
   }
   if (d.n_coords.empty()) return;
-  // Mobilizers with qdot = N u, N != I: dp/dq = dp/du N^-1, one joint's block at a time.
+  // Mobilizers with qdot = N u, N != I: dp/dq = dp/du N^-1, one mobilizer's block at a time.
   for (size_t k = 0; k < d.n_coords.size();) {
-    const int joint = d.n_joint[k];
+    const int group = d.n_group[k];
     size_t e = k;
-    while (e < d.n_coords.size() && d.n_joint[e] == joint) ++e;
+    while (e < d.n_coords.size() && d.n_group[e] == group) ++e;
     const int nb = int(e - k);
     for (int jj = 0; jj < nb; ++jj) {
       w.q_unit = 0;
@@ -665,11 +724,36 @@ Eigen::VectorXd System::calcCouplerErrors(const Workspace& ws) const {
   return err;
 }
 
-void System::setCouplersEnabled(Workspace& ws, bool enabled) const {
-  SimTK::State& s = ws.impl_->state;
+int System::getNumConstraintEquations(int k) const {
+  KNEESIM_CHECK(k >= 0 && k < int(impl_->constraints.size()), "constraint index out of range");
+  switch (model_->constraints[k].type) {
+    case model::ConstraintType::Point: return 3;
+    case model::ConstraintType::PointOnLine: return 2;
+    case model::ConstraintType::ConstantDistance: return 1;
+    case model::ConstraintType::Weld: return 6;
+  }
+  return 0;
+}
+
+Eigen::VectorXd System::calcConstraintPositionErrors(const Workspace& ws, int k) const {
+  KNEESIM_CHECK(k >= 0 && k < int(impl_->constraints.size()), "constraint index out of range");
+  const SimTK::Constraint& con = impl_->matter.getConstraint(impl_->constraints[k]);
+  KNEESIM_CHECK(!con.isDisabled(ws.impl_->state), "constraint errors asked of a workspace where it is disabled");
+  const SimTK::Vector e = con.getPositionErrorsAsVector(ws.impl_->state);
+  Eigen::VectorXd out(e.size());
+  for (int i = 0; i < e.size(); ++i) out[i] = e[i];
+  return out;
+}
+
+namespace {
+
+/// Enables or disables the Simbody constraints @p which in @p s; realises positions again if
+/// anything changed.
+void setEnabled(const SimTK::MultibodySystem& system, const SimTK::SimbodyMatterSubsystem& matter,
+                const std::vector<SimTK::ConstraintIndex>& which, SimTK::State& s, bool enabled) {
   bool changed = false;
-  for (SimTK::ConstraintIndex ci : impl_->couplers) {
-    const SimTK::Constraint& con = impl_->matter.getConstraint(ci);
+  for (SimTK::ConstraintIndex ci : which) {
+    const SimTK::Constraint& con = matter.getConstraint(ci);
     if (con.isDisabled(s) == !enabled) continue;
     if (enabled)
       con.enable(s);
@@ -677,7 +761,17 @@ void System::setCouplersEnabled(Workspace& ws, bool enabled) const {
       con.disable(s);
     changed = true;
   }
-  if (changed) impl_->system.realize(s, SimTK::Stage::Position);
+  if (changed) system.realize(s, SimTK::Stage::Position);
+}
+
+}  // namespace
+
+void System::setConstraintsEnabled(Workspace& ws, bool enabled) const {
+  setEnabled(impl_->system, impl_->matter, impl_->constraints, ws.impl_->state, enabled);
+}
+
+void System::setCouplersEnabled(Workspace& ws, bool enabled) const {
+  setEnabled(impl_->system, impl_->matter, impl_->couplers, ws.impl_->state, enabled);
 }
 
 void System::realizeVelocity(Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
@@ -757,8 +851,16 @@ void calcBodyAccelerations(const model::Model& m, const TreeKinematics& kin, con
 
 Eigen::Matrix<double, 6, 1> System::getMobilityAxis(const Workspace& ws, int coordinate) const {
   const model::Coordinate& co = model_->coordinates[coordinate];
-  const SimTK::MobilizedBody& mb = impl_->matter.getMobilizedBody(impl_->mobod[model_->joints[co.joint].child_body]);
-  const SimTK::SpatialVec H = mb.getHCol(ws.impl_->state, SimTK::MobilizerUIndex(co.index_in_joint));
+  const SimTK::State& s = ws.impl_->state;
+  // The coordinate's own mobilizer: in a ScapulothoracicJoint's chain it moves an intermediate
+  // body, whose axis is shifted to the child body's origin (the rest of the chain is rigid).
+  const SimTK::MobilizedBody& mb = impl_->matter.getMobilizedBody(impl_->coord_mobod[coordinate]);
+  SimTK::SpatialVec H = mb.getHCol(s, SimTK::MobilizerUIndex(impl_->coord_mq[coordinate]));
+  const SimTK::MobilizedBodyIndex child = impl_->mobod[model_->joints[co.joint].child_body];
+  if (impl_->coord_mobod[coordinate] != child) {
+    const SimTK::Vec3 r = impl_->matter.getMobilizedBody(child).getBodyOriginLocation(s) - mb.getBodyOriginLocation(s);
+    H[1] += SimTK::cross(H[0], r);
+  }
   Eigen::Matrix<double, 6, 1> out;
   out << H[0][0], H[0][1], H[0][2], H[1][0], H[1][1], H[1][2];
   return out;

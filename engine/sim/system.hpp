@@ -62,7 +62,10 @@ struct SystemOptions {
 
 /// A Simbody MultibodySystem built from a model: a Custom mobilizer evaluating the model's
 /// functions for CustomJoints (the kinematics of Simbody's FunctionBased mobilizer, which OpenSim
-/// uses), native mobilizers for the other joint types, Constraint::CoordinateCoupler for couplers.
+/// uses), native mobilizers for the other joint types (Ellipsoid for EllipsoidJoint; Ellipsoid,
+/// Pin and Weld in a chain with two massless bodies for ScapulothoracicJoint, as OpenSim builds
+/// it), Constraint::CoordinateCoupler for couplers and Ball, PointOnLine, Rod and Weld
+/// constraints for Model::constraints.
 class System {
  public:
   /// Builds the Simbody system. Throws InputError (naming the model file and joint) if Simbody
@@ -148,6 +151,20 @@ class System {
   /// The model's coordinates in Simbody's mobility order, which is the order OpenSim writes
   /// generalised forces in (Model::getCoordinatesInMultibodyTreeOrder).
   std::vector<int> getCoordinatesInTreeOrder() const;
+
+  /// Enables or disables Simbody's constraints for Model::constraints (Point, PointOnLine,
+  /// ConstantDistance, Weld) in @p ws; they are enabled in a new workspace. Inverse kinematics
+  /// enforces them itself (ik/constraint_terms.hpp) and disables them, as it does the couplers.
+  void setConstraintsEnabled(Workspace& ws, bool enabled) const;
+
+  /// Simbody's position errors of Model::constraints[k] at the positions realised in @p ws
+  /// (the constraint must be enabled there): Ball p2 - p1 (m), PointOnLine the two offsets
+  /// across the line (m), Rod its length error, Weld three perpendicularity dot products then
+  /// the origin offset (m).
+  Eigen::VectorXd calcConstraintPositionErrors(const Workspace& ws, int k) const;
+
+  /// Number of position equations of Model::constraints[k] (3, 2, 1 or 6).
+  int getNumConstraintEquations(int k) const;
 
   /// Whether N (qdot = N u) is the identity for every mobilizer, so dq = du.
   bool isQDotEqualToU() const { return qdot_is_u_; }

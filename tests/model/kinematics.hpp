@@ -3,6 +3,7 @@
 // joint definitions (OpenSim/Simbody semantics) without Simbody. It checks the readers' frames
 // and axes against hand-derived positions, and URDF round trips against the original model.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,17 @@ using model::Vec3;
 inline Pose rot(const Vec3& axis, double angle) {
   Pose X = Pose::Identity();
   X.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  return X;
+}
+
+/// Simbody's Ellipsoid mobilizer with semi-axes @p r: M turned by the body-fixed X-Y-Z angles
+/// q0..q2 in F; M's origin on the ellipsoid at (r_x n_x, r_y n_y, r_z n_z), n = M's z axis in F.
+inline Pose ellipsoidMotion(const Vec3& r, double q0, double q1, double q2) {
+  Pose X = Pose::Identity();
+  X.linear() = (Eigen::AngleAxisd(q0, Vec3::UnitX()) * Eigen::AngleAxisd(q1, Vec3::UnitY()) *
+                Eigen::AngleAxisd(q2, Vec3::UnitZ()))
+                   .toRotationMatrix();
+  X.translation() = r.cwiseProduct(X.linear().col(2));
   return X;
 }
 
@@ -45,6 +57,25 @@ inline Pose jointMotion(const model::Model& m, const model::Joint& jt, const std
       X = shift(Vec3(c(3), c(4), c(5))) * rot(Vec3::UnitX(), c(0)) * rot(Vec3::UnitY(), c(1)) *
           rot(Vec3::UnitZ(), c(2));
       break;
+    case JointType::Ellipsoid: X = ellipsoidMotion(jt.radii, c(0), c(1), c(2)); break;
+    case JointType::Scapulothoracic: {
+      // OpenSim's ScapulothoracicJoint (ScapulothoracicJoint.cpp): the ellipsoid's frame is F
+      // turned pi/2 about z with the radii swapped to match; its M frame is the intermediate
+      // body turned pi/2 about z; then winging about W's z, W at (x0, y0, 0) with its z axis
+      // along (-sin a, cos a, 0); the scapula's joint frame is the winging body's frame.
+      const Pose Rz = rot(Vec3::UnitZ(), M_PI / 2);
+      const double a = jt.winging_direction;
+      Pose W = Pose::Identity();
+      const Vec3 zw(-std::sin(a), std::cos(a), 0);
+      const Vec3 xw = zw.cross(Vec3::UnitZ()).normalized();
+      W.linear().col(0) = xw;
+      W.linear().col(1) = zw.cross(xw);
+      W.linear().col(2) = zw;
+      W.translation() = Vec3(jt.winging_origin.x(), jt.winging_origin.y(), 0);
+      X = Rz * ellipsoidMotion(Vec3(jt.radii.y(), jt.radii.x(), jt.radii.z()), c(0), c(1), c(2)) * Rz.inverse() * W *
+          rot(Vec3::UnitZ(), c(3)) * W.inverse();
+      break;
+    }
     case JointType::Custom: {
       Vec3 p = Vec3::Zero();
       Pose R = Pose::Identity();

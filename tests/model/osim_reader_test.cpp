@@ -151,8 +151,14 @@ TEST(OsimReader, JwAllBodyFormat30000) {
   EXPECT_EQ(m->couplers.size(), 2u);  // patfem_flexion_con(_l); the two patfem_ty couplers are disabled
   EXPECT_EQ(m->muscles.size(), 54u);  // read by model/osim_forces (tested there)
   EXPECT_EQ(countIgnored(*m, "Ligament (disabled)"), 3);
-  EXPECT_EQ(countIgnored(*m, "ConstantDistanceConstraint"), 2);
+  EXPECT_EQ(countIgnored(*m, "ConstantDistanceConstraint (disabled)"), 2);  // the patellar ligaments
+  EXPECT_TRUE(m->constraints.empty());
   EXPECT_EQ(countIgnored(*m, "CoordinateCouplerConstraint (disabled)"), 2);
+  // The disabled ligaments are listed as ligaments that do not pose the model (see model info).
+  for (const IgnoredComponent& c : m->ignored) {
+    if (c.type == "Ligament (disabled)") EXPECT_TRUE(c.category == "ligament" && !c.affects_kinematics);
+    if (c.type == "ConstantDistanceConstraint (disabled)") EXPECT_FALSE(c.affects_kinematics);
+  }
   EXPECT_EQ(m->wrap_objects.size(), 36u);
 
   // knee: reverse CustomJoint, child tibial_tray, parent femoral_component; its CoordinateSet

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "model/kinematics.hpp"
 #include "model/osim_reader.hpp"
 #include "model/urdf.hpp"
 #include "support/chain_model.hpp"
@@ -337,6 +338,30 @@ TEST(System, BodyAccelerationsAndAxesMatchFiniteDifferences) {
     const Eigen::Vector3d r = sys.getBodyPose(*ws, b).translation() - sys.getBodyPose(*ws, p).translation();
     rel.tail<3>() -= sys.getBodyVelocity(*ws, p).head<3>().cross(r);  // the parent's rotation carries b
     EXPECT_LT((sys.getMobilityAxis(*ws, c) - rel).norm(), 1e-12) << m.coordinates[c].name;
+  }
+}
+
+// ScapulothoracicJoint (Simbody's Ellipsoid, Pin and Weld chained through two massless bodies)
+// and EllipsoidJoint against the plain-Eigen kinematics written from OpenSim's source
+// (tests/model/kinematics.hpp), at poses away from every axis; their station Jacobians against
+// central differences (the Ellipsoid mobilizer has qdot != u).
+TEST(System, ScapulothoracicAndEllipsoidJointsMatchOpenSimsDefinition) {
+  auto model = model::readOsim(test::sourcePath("tests/model/fixtures/shoulder40000.osim"));
+  System sys(model);
+  auto ws = sys.createWorkspace();
+  const model::Model& m = *model;
+  for (int trial = 0; trial < 3; ++trial) {
+    std::vector<double> q(m.coordinates.size());
+    for (size_t c = 0; c < q.size(); ++c) q[c] = 0.4 * std::sin(1.3 * double(c) + 0.9 * trial) + 0.05 * trial;
+    Eigen::VectorXd qe = Eigen::Map<const Eigen::VectorXd>(q.data(), Eigen::Index(q.size()));
+    sys.realizePosition(*ws, qe);
+    const std::vector<Pose> X = test::bodyPoses(m, q);
+    for (size_t b = 1; b < m.bodies.size(); ++b) {
+      const Pose S = sys.getBodyPose(*ws, int(b));
+      EXPECT_LT((S.translation() - X[b].translation()).norm(), 1e-12) << m.bodies[b].name;
+      EXPECT_LT((S.linear() - X[b].linear()).norm(), 1e-12) << m.bodies[b].name;
+    }
+    expectJacobianMatchesDifferences(sys, qe);
   }
 }
 
