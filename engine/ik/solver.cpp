@@ -14,7 +14,11 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 Solver::Solver(const sim::System& system, std::vector<MarkerTask> markers, std::vector<CoordinateTask> coordinates,
                SolverOptions options)
-    : system_(system), marker_tasks_(std::move(markers)), coord_tasks_(std::move(coordinates)), options_(options) {
+    : system_(system),
+      marker_tasks_(std::move(markers)),
+      coord_tasks_(std::move(coordinates)),
+      options_(options),
+      terms_(system.getModel()) {
   const model::Model& m = system_.getModel();
   const int nq = system_.getNumCoordinates();
 
@@ -58,10 +62,27 @@ Solver::Solver(const sim::System& system, std::vector<MarkerTask> markers, std::
     stations_.push_back(m.markers[t.marker].p_BM);
   }
   weights_.assign(nm, 0.0);
+  n_eq_ = terms_.getNumEquations();
+  n_pen_ = penaltyConstraints() ? n_eq_ : 0;
+  const int ns = terms_.getNumStations();
+  k_points_.assign(ns, Eigen::Vector3d::Zero());
+  Jk_.setZero(3 * ns, nq);
+  JkE_.setZero(3 * ns, nz);
+  c_.setZero(n_eq_);
+  C_.setZero(n_eq_, nz);
+  C_here_.setZero(n_eq_, nz);
+  c_here_.setZero(n_eq_);
+  AinvCt_.setZero(nz, n_eq_);
+  S_.setZero(n_eq_, n_eq_);
+  y_.setZero(nz);
+  mu_.setZero(n_eq_);
+  cy_.setZero(n_eq_);
+  ldlt_s_ = Eigen::LDLT<Eigen::MatrixXd>(n_eq_);
+  constraint_errors_.assign(terms_.getNumConstraints(), 0.0);
   Jq_.setZero(3 * nm, nq);
   E_.setZero(nq, nz);
-  J_.setZero(3 * nm + nc, nz);
-  r_.setZero(3 * nm + nc);
+  J_.setZero(3 * nm + nc + n_pen_, nz);
+  r_.setZero(3 * nm + nc + n_pen_);
   H_.setZero(nz, nz);
   A_.setZero(nz, nz);
   g_.setZero(nz);
@@ -124,22 +145,43 @@ void Solver::buildExpansion(const Eigen::VectorXd& q) {
   }
 }
 
+void Solver::expandJacobian(const Eigen::MatrixXd& Jq, Eigen::Ref<Eigen::MatrixXd> out) const {
+  out.setZero();
+  for (int c = 0; c < int(e_cols_.size()); ++c)
+    for (int k : e_cols_[c]) out.col(k).noalias() += E_(c, k) * Jq.col(c);
+}
+
+void Solver::evalConstraintStations(sim::Workspace& ws, bool jacobian) {
+  const auto& bodies = terms_.getStationBodies();
+  const auto& stations = terms_.getStations();
+  for (size_t i = 0; i < bodies.size(); ++i) k_points_[i] = system_.findStationLocation(ws, bodies[i], stations[i]);
+  terms_.calcErrors(k_points_, c_);
+  if (!jacobian) return;
+  system_.calcStationJacobian(ws, bodies, stations, Jk_);
+  expandJacobian(Jk_, JkE_);
+  terms_.calcJacobian(k_points_, JkE_, C_);
+}
+
 void Solver::calcResidualJacobian(sim::Workspace& ws, const Eigen::VectorXd& q) {
   const int nm = int(marker_tasks_.size());
+  const int nc = int(coord_tasks_.size());
   system_.calcStationJacobian(ws, bodies_, stations_, Jq_);
   if (!coupler_order_.empty()) buildExpansion(q);
   // J = diag(sqrt w) Jq E, accumulated column by column over E's non-zeros.
   J_.setZero();
-  auto markers = J_.topRows(3 * nm);
-  for (int c = 0; c < int(e_cols_.size()); ++c)
-    for (int k : e_cols_[c]) markers.col(k).noalias() += E_(c, k) * Jq_.col(c);
+  expandJacobian(Jq_, J_.topRows(3 * nm));
   for (int i = 0; i < nm; ++i)
     if (weights_[i] != 1.0) J_.middleRows<3>(3 * i) *= std::sqrt(weights_[i]);
-  for (size_t j = 0; j < coord_tasks_.size(); ++j) {
+  for (int j = 0; j < nc; ++j) {
     const int c = coord_tasks_[j].coordinate;
     const double sw = std::sqrt(coord_tasks_[j].weight);
-    for (int k : e_cols_[c]) J_(3 * nm + int(j), k) = sw * E_(c, k);
+    for (int k : e_cols_[c]) J_(3 * nm + j, k) = sw * E_(c, k);
   }
+  if (n_eq_ == 0) return;
+  evalConstraintStations(ws, true);
+  if (n_pen_ > 0) J_.bottomRows(n_pen_) = std::sqrt(options_.constraint_weight) * C_;
+  C_here_ = C_;  // projections of trial points overwrite C_ and c_
+  c_here_ = c_;
 }
 
 double Solver::calcMarkerMotion() const {
@@ -171,7 +213,56 @@ double Solver::evaluate(sim::Workspace& ws, const Eigen::VectorXd& q, const std:
   }
   for (size_t j = 0; j < coord_tasks_.size(); ++j)
     r_[3 * nm + j] = std::sqrt(coord_tasks_[j].weight) * (q[coord_tasks_[j].coordinate] - reference[j]);
+  if (n_pen_ > 0) {
+    evalConstraintStations(ws, false);
+    r_.tail(n_pen_) = std::sqrt(options_.constraint_weight) * c_;
+  }
   return r_.squaredNorm();
+}
+
+double Solver::projectOntoConstraints(sim::Workspace& ws, Eigen::VectorXd& z, Eigen::VectorXd& q) {
+  const int nz = int(free_.size());
+  double err = 0;
+  for (int it = 0; it < 50; ++it) {
+    system_.realizePosition(ws, q);
+    if (!coupler_order_.empty()) buildExpansion(q);
+    evalConstraintStations(ws, true);
+    err = c_.cwiseAbs().maxCoeff();
+    if (err <= options_.constraint_tolerance || nz == 0) break;
+    // Least-norm Gauss-Newton step: dz = -C^T (C C^T + eps I)^-1 c; redundant equations (a
+    // planar mechanism's out-of-plane rows) make C C^T singular, hence the small ridge.
+    S_.noalias() = C_ * C_.transpose();
+    S_.diagonal().array() += 1e-12 * std::max(1.0, S_.diagonal().maxCoeff());
+    ldlt_s_.compute(S_);
+    mu_ = c_;
+    ldlt_s_.solveInPlace(mu_);
+    y_.noalias() = C_.transpose() * mu_;
+    for (int k = 0; k < nz; ++k) {
+      z[k] = std::clamp(z[k] - y_[k], lower_[k], upper_[k]);
+      q[free_[k]] = z[k];
+    }
+    applyConstraints(q);
+  }
+  return err;
+}
+
+void Solver::solveConstrainedStep() {
+  // min |J dz + r|^2 + damping  s.t.  C dz = -c:  dz = y - A^-1 C^T mu,  y = -A^-1 g,
+  // (C A^-1 C^T) mu = C y + c. Columns of variables held at a bound are zero in C.
+  const int nz = int(free_.size());
+  C_ = C_here_;
+  for (int k = 0; k < nz; ++k)
+    if (active_[k]) C_.col(k).setZero();
+  AinvCt_ = C_.transpose();
+  ldlt_.solveInPlace(AinvCt_);
+  S_.noalias() = C_ * AinvCt_;
+  S_.diagonal().array() += 1e-12 * std::max(1.0, S_.diagonal().maxCoeff());
+  ldlt_s_.compute(S_);
+  y_ = step_;  // step_ holds -A^-1 g on entry
+  cy_.noalias() = C_ * y_;
+  mu_ = cy_ + c_here_;
+  ldlt_s_.solveInPlace(mu_);
+  step_.noalias() = y_ - AinvCt_ * mu_;
 }
 
 FrameResult Solver::trackFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
@@ -195,15 +286,21 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   KNEESIM_CHECK(int(observed.size()) == nm && reference.size() == coord_tasks_.size(), "IK input sizes");
   KNEESIM_CHECK(q.size() == system_.getNumCoordinates(), "IK coordinate vector size");
   FrameResult res;
+  // OpenSim's marker goal is the weighted mean over the markers present in the frame.
+  double weight_sum = 0;
   for (int i = 0; i < nm; ++i) {
     const bool present = observed[i].allFinite();
     weights_[i] = present ? marker_tasks_[i].weight : 0.0;
+    weight_sum += weights_[i];
     if (present && marker_tasks_[i].weight > 0) ++res.markers_used;
   }
+  if (weight_sum > 0)
+    for (int i = 0; i < nm; ++i) weights_[i] /= weight_sum;
 
   for (int k = 0; k < nz; ++k) z_[k] = std::clamp(q[free_[k]], lower_[k], upper_[k]);
   for (int k = 0; k < nz; ++k) q[free_[k]] = z_[k];
   applyConstraints(q);
+  if (hardConstraints()) projectOntoConstraints(ws, z_, q);
   double cost = evaluate(ws, q, observed, reference);
   double lambda = 1e-6;
   double previous_step = kInf;
@@ -219,14 +316,17 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   for (int it = 0; it < options_.max_iterations && nz > 0; ++it) {
     res.iterations = it + 1;
     calcResidualJacobian(ws, q);
-    g_.noalias() = J_.transpose() * r_;
+    g_.setZero();
     H_.setZero();
-    H_.selfadjointView<Eigen::Lower>().rankUpdate(J_.transpose());
+    if (J_.rows() > 0) {  // no residual (assembly onto constraints alone): Eigen's product would divide by 0
+      g_.noalias() = J_.transpose() * r_;
+      H_.selfadjointView<Eigen::Lower>().rankUpdate(J_.transpose());
+    }
     // Variables resting on a bound with the gradient pushing outwards stay there this step.
     for (int k = 0; k < nz; ++k)
       active_[k] = (z_[k] <= lower_[k] && g_[k] > 0) || (z_[k] >= upper_[k] && g_[k] < 0);
 
-    bool accepted = false, done = false;
+    bool accepted = false, done = false, tried = false;
     double cost_trial = cost, step_size = 0, marker_motion = 0;
     while (!accepted) {
       A_.triangularView<Eigen::Lower>() = H_;
@@ -242,6 +342,7 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
       for (int k = 0; k < nz; ++k)
         if (active_[k]) step_[k] = 0.0;
       ldlt_.solveInPlace(step_);
+      if (hardConstraints()) solveConstrainedStep();
       step_size = 0;
       for (int k = 0; k < nz; ++k) {
         z_trial_[k] = std::clamp(z_[k] + step_[k], lower_[k], upper_[k]);
@@ -256,7 +357,15 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
       q_trial_ = q;
       for (int k = 0; k < nz; ++k) q_trial_[free_[k]] = z_trial_[k];
       applyConstraints(q_trial_);
+      if (hardConstraints()) {
+        // Back onto the constraints (the linearised step leaves second-order errors); the step
+        // taken is the projected one.
+        projectOntoConstraints(ws, z_trial_, q_trial_);
+        step_size = 0;
+        for (int k = 0; k < nz; ++k) step_size = std::max(step_size, std::abs(z_trial_[k] - z_[k]));
+      }
       cost_trial = evaluate(ws, q_trial_, observed, reference);
+      tried = true;
       if (cost_trial <= cost) {
         accepted = true;
         lambda = std::max(lambda / 5.0, 1e-12);
@@ -266,6 +375,7 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
       }
     }
     if (done) {
+      if (tried) evaluate(ws, q, observed, reference);  // the state holds a rejected trial
       res.converged = true;
       break;
     }
@@ -305,6 +415,13 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
     }
   }
   res.rms_error = res.markers_used > 0 ? std::sqrt(res.total_squared_error / res.markers_used) : 0.0;
+  if (terms_.getNumConstraints() > 0) {
+    evalConstraintStations(ws, false);  // the state holds the solution
+    for (int k = 0; k < terms_.getNumConstraints(); ++k) {
+      constraint_errors_[k] = terms_.calcViolation(k_points_, k);
+      res.max_constraint_error = std::max(res.max_constraint_error, constraint_errors_[k]);
+    }
+  }
   return res;
 }
 

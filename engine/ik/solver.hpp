@@ -1,6 +1,8 @@
 #pragma once
 // Inverse kinematics: weighted least squares between model and measured markers, per frame.
 
+#include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -8,6 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/Cholesky>
 
+#include "ik/constraint_terms.hpp"
 #include "sim/system.hpp"
 
 namespace kneesim::ik {
@@ -32,6 +35,13 @@ struct SolverOptions {
   /// more than this. The IK tool sets it to the setup's accuracy.
   double step_tolerance = 1e-9;
   double cost_tolerance = 1e-14;    ///< ... or when the cost decreases by less than this fraction.
+  /// OpenSim's constraint_weight for Model::constraints: infinity enforces them (every iterate
+  /// is projected back onto them), a finite value adds weight * |c|^2 to the objective, c being
+  /// Simbody's position errors (see ConstraintTerms). Couplers are always enforced exactly.
+  double constraint_weight = std::numeric_limits<double>::infinity();
+  /// Hard constraints are met when no equation is off by more than this (m, or the
+  /// dimensionless orientation equations of a weld).
+  double constraint_tolerance = 1e-10;
 };
 
 /// What one frame's solve produced. Errors are unweighted distances in metres.
@@ -43,13 +53,20 @@ struct FrameResult {
   int markers_used = 0;
   int iterations = 0;
   bool converged = false;
+  /// Largest violation of Model::constraints at the solution (ConstraintTerms::calcViolation:
+  /// m, or rad for a weld's orientation); 0 without constraints.
+  double max_constraint_error = 0;
 };
 
 /// Weighted least-squares IK over the model's coordinates, honouring locked coordinates (held at
-/// their default), clamped ranges (box constraints, active set), and coordinate couplers
+/// their default), clamped ranges (box constraints, active set), coordinate couplers
 /// (eliminated: dependent coordinates are computed from their independents, so couplers hold
-/// exactly). Solves  min_q  sum_i w_i |x_i - p_i(q)|^2 + sum_j w_j (q_j - r_j)^2  by
-/// Levenberg-Marquardt on the free coordinates with Simbody's station Jacobians.
+/// exactly) and the model's body constraints (SolverOptions::constraint_weight). Minimises
+/// OpenSim's InverseKinematicsSolver objective (twice Simbody's Assembler goal):
+///   sum_i w_i |x_i - p_i(q)|^2 / sum_i w_i  +  sum_j w_j (q_j - r_j)^2  [+ W |c(q)|^2]
+/// (markers missing in the frame leave both sums) by Levenberg-Marquardt on the free
+/// coordinates with Simbody's station Jacobians; with W infinite, c(q) = 0 is kept by a
+/// constrained (KKT) step and a projection of every trial point back onto the constraints.
 ///
 /// A Solver holds every buffer it needs: solving a frame does not allocate. Not thread-safe; use
 /// one Solver (and Workspace) per thread.
@@ -85,6 +102,10 @@ class Solver {
   const std::vector<CoordinateTask>& getCoordinateTasks() const { return coord_tasks_; }
   /// Indices of the coordinates the solver varies.
   const std::vector<int>& getFreeCoordinates() const { return free_; }
+  /// The constraint equations in use (empty without Model::constraints).
+  const ConstraintTerms& getConstraintTerms() const { return terms_; }
+  /// Violation of each Model::constraints entry at the last solved frame (see FrameResult).
+  const std::vector<double>& getLastConstraintErrors() const { return constraint_errors_; }
 
  private:
   double evaluate(sim::Workspace& ws, const Eigen::VectorXd& q, const std::vector<Eigen::Vector3d>& observed,
@@ -92,6 +113,17 @@ class Solver {
   void buildExpansion(const Eigen::VectorXd& q);
   void calcResidualJacobian(sim::Workspace& ws, const Eigen::VectorXd& q);
   double calcMarkerMotion() const;
+  /// Constraint stations at the realised state: positions, then (if @p jacobian) C = dc/dz.
+  void evalConstraintStations(sim::Workspace& ws, bool jacobian);
+  /// J = J_q E for the rows of one station set (columns over E's non-zeros).
+  void expandJacobian(const Eigen::MatrixXd& Jq, Eigen::Ref<Eigen::MatrixXd> out) const;
+  /// Moves z onto the hard constraints (Gauss-Newton, least-norm steps); updates q. Returns
+  /// the largest remaining equation error.
+  double projectOntoConstraints(sim::Workspace& ws, Eigen::VectorXd& z, Eigen::VectorXd& q);
+  /// Solves the damped step with the linearised hard constraints C dz = -c (Schur complement).
+  void solveConstrainedStep();
+  bool hardConstraints() const { return n_eq_ > 0 && !std::isfinite(options_.constraint_weight); }
+  bool penaltyConstraints() const { return n_eq_ > 0 && std::isfinite(options_.constraint_weight); }
 
   const sim::System& system_;
   std::vector<MarkerTask> marker_tasks_;
@@ -121,6 +153,21 @@ class Solver {
   Eigen::VectorXd q_last_, q_before_;  // trackFrame() history
   int tracked_ = 0;
   std::vector<Eigen::Vector3d> model_markers_;
+
+  // Body constraints (ConstraintTerms), all buffers sized once.
+  ConstraintTerms terms_;
+  int n_eq_ = 0;
+  int n_pen_ = 0;                     // penalty rows in r_/J_ (n_eq_ with a finite weight)
+  std::vector<Eigen::Vector3d> k_points_;  // constraint stations in ground
+  Eigen::MatrixXd Jk_, JkE_;          // their Jacobians in q and in z
+  Eigen::VectorXd c_;                 // equation values
+  Eigen::MatrixXd C_;                 // dc/dz
+  Eigen::VectorXd c_here_;            // c and C at the current iterate
+  Eigen::MatrixXd C_here_;
+  Eigen::MatrixXd AinvCt_, S_;        // Schur complement pieces
+  Eigen::VectorXd y_, mu_, cy_;
+  Eigen::LDLT<Eigen::MatrixXd> ldlt_s_;
+  std::vector<double> constraint_errors_;
 };
 
 }  // namespace kneesim::ik

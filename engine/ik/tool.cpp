@@ -15,8 +15,8 @@
 #include "core/xml.hpp"
 #include "io/marker_table.hpp"
 #include "io/storage.hpp"
-#include "model/osim_reader.hpp"
-#include "model/urdf.hpp"
+#include "model/model_info.hpp"
+#include "model/read_model.hpp"
 
 namespace kneesim::ik {
 
@@ -169,9 +169,7 @@ namespace {
 model::ModelPtr loadModel(const IkSetup& setup) {
   if (!fs::exists(setup.model_file))
     throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
-  const std::string low = toLower(setup.model_file);
-  if (endsWith(low, ".urdf")) return model::readUrdf(setup.model_file);
-  return model::readOsim(setup.model_file);
+  return model::readModel(setup.model_file);
 }
 
 /// A marker name without the separators people use differently ('.', '_', '-', ' ') and
@@ -263,11 +261,12 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   for (const auto& w : system.getWarnings()) report.warnings.push_back(w);
   if (!m.couplers.empty() && std::isfinite(setup.constraint_weight)) {
     std::ostringstream os;
-    os << "constraint_weight " << setup.constraint_weight << " is not used: kneesim enforces the "
-       << m.couplers.size() << " coordinate coupler" << (m.couplers.size() > 1 ? "s" : "")
-       << " exactly, as OpenSim does with constraint_weight = Infinity";
+    os << "constraint_weight " << setup.constraint_weight << " is not used for the " << m.couplers.size()
+       << " coordinate coupler" << (m.couplers.size() > 1 ? "s" : "")
+       << ": kneesim enforces couplers exactly, as OpenSim does with constraint_weight = Infinity";
     report.warnings.push_back(os.str());
   }
+  if (const std::string w = model::describeIgnoredKinematics(m); !w.empty()) report.warnings.push_back(w);
 
   if (!setup.marker_rotation_deg.isZero()) {
     const Eigen::Matrix3d R = model::poseFromXYZ(setup.marker_rotation_deg * (M_PI / 180.0), Eigen::Vector3d::Zero()).linear();
@@ -275,8 +274,10 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
       if (p.allFinite()) p = R * p;
   }
 
-  // Tasks -> model markers and data columns. A task naming something the model lacks is an
-  // error: the user asked for it, and silently dropping it changes the answer.
+  // Tasks -> model markers and data columns, as OpenSim's InverseKinematicsTool: tasks not
+  // applied are not looked at; an applied coordinate task must name a model coordinate; applied
+  // marker tasks restrict tracking to their markers (those the model lacks are skipped, and
+  // said so); with no applied marker task every model marker in the data is tracked at weight 1.
   struct Tracked {
     int marker;
     double weight;
@@ -286,25 +287,34 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   std::vector<Tracked> tracked;
   std::vector<CoordinateTask> coord_tasks;
   std::vector<const TaskSpec*> coord_specs;
+  std::vector<std::string> not_in_model;
+  bool any_marker_task = false;
   for (const TaskSpec& t : setup.tasks) {
+    if (!t.apply) continue;
     if (t.kind == TaskSpec::Kind::Marker) {
+      any_marker_task = true;
       const int mi = m.findMarker(t.name);
-      if (mi < 0)
-        throw InputError(t.where, "task names marker '" + t.name + "' which the model (" + setup.model_file +
-                                      ") does not have");
-      if (!t.apply || t.weight == 0) continue;
+      if (mi < 0) {
+        not_in_model.push_back(t.name);
+        continue;
+      }
+      if (t.weight == 0) continue;
       tracked.push_back({mi, t.weight, &t});
     } else {
       const int ci = m.findCoordinate(t.name);
       if (ci < 0)
         throw InputError(t.where, "task names coordinate '" + t.name + "' which the model (" + setup.model_file +
                                       ") does not have");
-      if (!t.apply || t.weight == 0) continue;
+      if (t.weight == 0) continue;
       coord_tasks.push_back({ci, t.weight});
       coord_specs.push_back(&t);
     }
   }
-  const bool all_markers = setup.tasks.empty();
+  if (!not_in_model.empty())
+    report.warnings.push_back(std::to_string(not_in_model.size()) + " applied marker task" +
+                              (not_in_model.size() > 1 ? "s name markers" : " names a marker") + " the model (" +
+                              setup.model_file + ") does not have, not tracked: " + join(not_in_model, ", "));
+  const bool all_markers = !any_marker_task;
   if (all_markers)  // OpenSim with no task set: every model marker found in the data, weight 1
     for (size_t i = 0; i < m.markers.size(); ++i) tracked.push_back({int(i), 1.0, nullptr});
   MarkerMatcher matcher(markers);
@@ -327,13 +337,10 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     marker_columns.push_back(t.column);
     marker_names.push_back(m.markers[t.marker].name);
   }
-  if (!not_in_data.empty()) {
-    std::string list;
-    for (const auto& n : not_in_data) list += (list.empty() ? "" : ", ") + n;
+  if (!not_in_data.empty())
     report.warnings.push_back(std::to_string(not_in_data.size()) + " task marker" +
                               (not_in_data.size() > 1 ? "s are" : " is") + " not in " + setup.marker_file +
-                              " and not tracked: " + list);
-  }
+                              " and not tracked: " + join(not_in_data, ", "));
   if (marker_tasks.empty())
     throw InputError(setup.locate(all_markers ? "marker_file" : "IKTaskSet"),
                      "no tracked marker of the model is in " + setup.marker_file +
@@ -361,23 +368,35 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     }
   }
 
-  // Frames in the time range.
+  // Frames in the time range, as OpenSim picks them: the range is clipped to the data and each
+  // end moves to the nearest frame.
   std::vector<int> frames;
   const double eps = 1e-9;
-  for (int f = 0; f < markers.getNumFrames(); ++f)
-    if (markers.time[f] >= setup.time_start - eps && markers.time[f] <= setup.time_end + eps) frames.push_back(f);
-  if (frames.empty()) {
+  const int n_frames = markers.getNumFrames();
+  if (n_frames == 0 || setup.time_start > markers.time.back() + eps || setup.time_end < markers.time.front() - eps) {
     std::ostringstream os;
     os << "expected a time range overlapping the marker data (" << (markers.time.empty() ? 0.0 : markers.time.front())
        << " to " << (markers.time.empty() ? 0.0 : markers.time.back()) << " s in " << setup.marker_file << "), got "
        << setup.time_start << " to " << setup.time_end << " s";
     throw InputError(setup.locate("time_range"), os.str());
   }
+  auto nearest = [&](double t) {
+    int best = 0;
+    for (int f = 1; f < n_frames; ++f)
+      if (std::abs(markers.time[f] - t) < std::abs(markers.time[best] - t)) best = f;
+    return best;
+  };
+  const int first = nearest(std::max(setup.time_start, markers.time.front()));
+  const int last = nearest(std::min(setup.time_end, markers.time.back()));
+  for (int f = first; f <= last; ++f) frames.push_back(f);
   report.frames_total = int(frames.size());
 
-  Solver solver(system, marker_tasks, coord_tasks, setup.solver);
+  SolverOptions solver_options = setup.solver;
+  solver_options.constraint_weight = setup.constraint_weight;
+  Solver solver(system, marker_tasks, coord_tasks, solver_options);
   auto ws = system.createWorkspace();
-  system.setCouplersEnabled(*ws, false);  // the solver eliminates couplers itself
+  system.setCouplersEnabled(*ws, false);  // the solver enforces couplers and constraints itself
+  system.setConstraintsEnabled(*ws, false);
   Eigen::VectorXd q = system.getDefaultCoordinates();
   std::vector<Eigen::Vector3d> observed(marker_tasks.size());
   std::vector<double> reference(coord_tasks.size());
@@ -432,6 +451,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     }
     const FrameResult r = solver.trackFrame(*ws, observed, reference, q);
     report.iterations += r.iterations;
+    report.max_constraint_error = std::max(report.max_constraint_error, r.max_constraint_error);
     report.time.push_back(t);
     report.frames.push_back(r);
     report.worst_marker.push_back(r.worst_marker >= 0 ? marker_names[r.worst_marker] : "");
@@ -442,6 +462,8 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   }
   report.seconds_solving = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   report.frames_solved = int(solutions.size());
+  report.constraints = int(m.constraints.size());
+  report.constraint_weight = setup.constraint_weight;
   if (solutions.empty())
     throw InputError({setup.marker_file, 0, ""}, "expected at least one frame with a tracked marker in the time range, "
                                                  "got every tracked marker missing in every frame");
@@ -473,7 +495,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   // Outputs: all prepared, then committed together.
   const double deg = 180.0 / M_PI;
   io::Storage motion;
-  motion.name = setup.name.empty() ? "ik" : setup.name;
+  motion.name = "Coordinates";  // OpenSim's name for the IK motion (its Kinematics analysis)
   motion.in_degrees = true;
   motion.labels.push_back("time");
   for (const auto& c : m.coordinates) motion.labels.push_back(c.name);
@@ -497,7 +519,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
       (fs::path(setup.results_directory) / ((setup.name.empty() ? std::string() : setup.name + "_") + "ik_")).string();
   if (setup.report_errors) {
     io::Storage err;
-    err.name = motion.name + " marker errors";
+    err.name = "Model Marker Errors from IK";
     err.labels = {"time", "total_squared_error", "marker_error_RMS", "marker_error_max", "markers_used"};
     err.data.resize(int(report.frames.size()), 5);
     for (size_t k = 0; k < report.frames.size(); ++k) {
@@ -508,7 +530,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
 
     // Per-marker error table (m), NaN where the marker was missing (opensim-core#2748).
     io::Storage table;
-    table.name = motion.name + " per-marker errors";
+    table.name = "Model Marker Errors per Marker from IK";
     table.labels.push_back("time");
     for (const auto& n : marker_names) table.labels.push_back(n);
     table.data.resize(int(marker_errors.size()), nm + 1);
@@ -527,7 +549,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   }
   if (setup.report_marker_locations) {
     io::Storage loc;
-    loc.name = motion.name + " model marker locations";
+    loc.name = "Model Marker Locations from IK";
     loc.labels.push_back("time");
     for (const auto& n : marker_names)
       for (const char* ax : {"_tx", "_ty", "_tz"}) loc.labels.push_back(n + ax);
@@ -554,6 +576,12 @@ void printIkSummary(const IkReport& report, std::ostream& os) {
      << (report.frames_solved > 0 ? report.seconds_solving * 1e6 / report.frames_solved : 0.0) << " us/frame, "
      << (report.frames_solved > 0 ? double(report.iterations) / report.frames_solved : 0.0) << " iterations/frame)\n";
   os << "marker error: mean RMS " << report.mean_rms * 1e3 << " mm, max " << report.max_error * 1e3 << " mm\n";
+  if (report.constraints > 0)
+    os << report.constraints << " constraint" << (report.constraints > 1 ? "s " : " ")
+       << (std::isfinite(report.constraint_weight) ? "penalised (constraint_weight " + formatSignificant(report.constraint_weight, 6) + ")"
+                                                   : std::string("enforced"))
+       << ": largest violation " << std::scientific << std::setprecision(2) << report.max_constraint_error << std::fixed
+       << " (m, or rad for a weld's orientation)\n";
   if (report.loose_name_matches > 0)
     os << report.loose_name_matches << " marker names matched ignoring '.', '_', '-' and ' ' (see data label)\n";
   os << "per-marker error (mm):\n  " << std::left << std::setw(22) << "marker" << std::setw(20) << "data label"

@@ -4,8 +4,10 @@
 // Differences from OpenSim, on purpose:
 // - Coordinate couplers are always enforced exactly (eliminated: the dependent coordinate is
 //   computed from its independents), as OpenSim does with constraint_weight = Infinity. A finite
-//   constraint_weight, which OpenSim turns into a penalty on the coupler errors, is not used;
-//   the run says so in a warning when the model has couplers.
+//   constraint_weight, which OpenSim turns into a penalty on the coupler errors, is not used for
+//   them; the run says so in a warning when the model has couplers. The other constraints
+//   (Point, PointOnLine, ConstantDistance, Weld) follow constraint_weight as OpenSim does.
+// - coordinate_file values are interpolated linearly (OpenSim fits GCV splines).
 // - accuracy is the convergence tolerance of each frame: a frame is solved when the next
 //   Gauss-Newton step would change no coordinate by more than accuracy (rad or m), or would move
 //   no tracked marker by more than accuracy (m).
@@ -115,6 +117,11 @@ struct IkReport {
   double seconds_solving = 0;
   int iterations = 0;                  ///< Gauss-Newton iterations over all frames.
   int loose_name_matches = 0;          ///< Markers matched ignoring separators.
+  int constraints = 0;                 ///< Model::constraints enforced or penalised.
+  /// Largest violation of Model::constraints over the solved frames (m, or rad for a weld's
+  /// orientation; see FrameResult::max_constraint_error).
+  double max_constraint_error = 0;
+  double constraint_weight = 0;        ///< The setup's constraint_weight (infinity: enforced).
 };
 
 /// Options for running.

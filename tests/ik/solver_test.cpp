@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "io/marker_table.hpp"
@@ -147,12 +148,15 @@ TEST(Solver, CoordinateTaskPullsTowardsReference) {
 // kneesim builds: Pin, Slider, Gimbal (qdot != u), Universal, CustomJoint with a SIMM spline and
 // a coupler (fixture chain40000), and gait2354 with its spline-coupled knees.
 long countAllocationsWhileTracking(const std::shared_ptr<const model::Model>& model, std::vector<MarkerTask> tasks,
-                                   const std::vector<std::vector<Vec3>>& frames) {
+                                   const std::vector<std::vector<Vec3>>& frames,
+                                   double constraint_weight = std::numeric_limits<double>::infinity()) {
   sim::System sys(model);
   auto ws = sys.createWorkspace();
   sys.setCouplersEnabled(*ws, false);
+  sys.setConstraintsEnabled(*ws, false);
   SolverOptions options;
   options.step_tolerance = 1e-7;
+  options.constraint_weight = constraint_weight;
   Solver solver(sys, std::move(tasks), {}, options);
   Eigen::VectorXd q = sys.getDefaultCoordinates();
   solver.trackFrame(*ws, frames[0], {}, q);  // first use: Simbody may set up lazily
@@ -279,6 +283,188 @@ TEST(Solver, StopsWhenNoMarkerWouldMoveByMoreThanTheTolerance) {
   r = fine.solveFrame(*ws, observed, {}, q);
   EXPECT_NEAR(q[0], 0.5, 1e-5);  // 1e-9 m of marker motion at a 1e-4 m lever is 1e-5 rad
   EXPECT_LT(r.max_error, 1e-9);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Body constraints (fixture constraints40000.osim: a four-bar closed by a PointConstraint, a
+// slider-crank by a PointOnLineConstraint, a cube welded to the crank, a pendulum tied to the
+// rocker by a ConstantDistanceConstraint). Its assembled poses are worked out here by hand
+// (circle intersections), independently of the solver.
+
+/// Intersection of the circles (c0, r0) and (c1, r1) on the left of c0 -> c1 (z = 0 plane).
+Vec3 circleIntersection(const Vec3& c0, double r0, const Vec3& c1, double r1) {
+  const Vec3 d = c1 - c0;
+  const double L = d.norm(), a = (r0 * r0 - r1 * r1 + L * L) / (2 * L), h = std::sqrt(r0 * r0 - a * a);
+  const Vec3 u = d / L;
+  return c0 + a * u + h * Vec3(-u.y(), u.x(), 0);
+}
+
+/// The fixture's coordinates with the crank at theta and crank2 at phi, every constraint met.
+Eigen::VectorXd assembledPose(const model::Model& m, double theta, double phi) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(int(m.coordinates.size()));
+  auto set = [&](const char* name, double v) { q[m.findCoordinate(name)] = v; };
+  const Vec3 B(std::cos(theta), std::sin(theta), 0), D(2, 0, 0);
+  const Vec3 C = circleIntersection(B, 2.0, D, 1.5);
+  set("q_crank", theta);
+  set("q_rod", std::atan2(C.y() - B.y(), C.x() - B.x()) - theta);
+  set("q_rocker", std::atan2(C.y(), C.x() - 2));
+  const double psi = std::asin(-0.5 * std::sin(phi) / 1.5);  // rod2's tip on y = -3
+  set("q_crank2", phi);
+  set("q_rod2", psi - phi);
+  const Vec3 P(3.5, 0, 0);
+  const Vec3 T = circleIntersection(P, 1.0, C, 1.5);
+  set("q_pendulum", std::atan2(T.y(), T.x() - 3.5));
+  // The cube: X_G_cube = Rz(theta) * X_crank_frame; its FreeJoint's body-fixed X-Y-Z angles.
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(theta, Vec3::UnitZ()).toRotationMatrix() *
+                            model::poseFromXYZ(Vec3(0.1, 0.2, 0.3), Vec3::Zero()).linear();
+  const Vec3 p = Eigen::AngleAxisd(theta, Vec3::UnitZ()) * Vec3(0.5, 0.2, 0.1);
+  set("cube_rx", std::atan2(-R(1, 2), R(2, 2)));
+  set("cube_ry", std::asin(R(0, 2)));
+  set("cube_rz", std::atan2(-R(0, 1), R(0, 0)));
+  set("cube_tx", p.x());
+  set("cube_ty", p.y());
+  set("cube_tz", p.z());
+  return q;
+}
+
+/// Simbody's own position errors of every constraint at @p q (largest magnitude).
+double simbodyConstraintError(const sim::System& sys, const Eigen::VectorXd& q) {
+  auto ws = sys.createWorkspace();  // constraints enabled
+  sys.realizePosition(*ws, q);
+  double e = 0;
+  for (size_t k = 0; k < sys.getModel().constraints.size(); ++k)
+    e = std::max(e, sys.calcConstraintPositionErrors(*ws, int(k)).cwiseAbs().maxCoeff());
+  return e;
+}
+
+std::vector<Vec3> markersAt(const sim::System& sys, const Eigen::VectorXd& q) {
+  auto ws = sys.createWorkspace();
+  sys.realizePosition(*ws, q);
+  std::vector<Vec3> obs;
+  for (const auto& mk : sys.getModel().markers) obs.push_back(sys.findStationLocation(*ws, mk.body, mk.p_BM));
+  return obs;
+}
+
+TEST(Solver, HandAssemblyMeetsSimbodysConstraints) {
+  auto model = model::readOsim(test::fixturePath("fixtures/constraints40000.osim"));
+  sim::System sys(model);
+  EXPECT_LT(simbodyConstraintError(sys, assembledPose(*model, 0.3, 0.8)), 1e-12);
+  EXPECT_LT(simbodyConstraintError(sys, sys.getDefaultCoordinates()), 1e-5);  // the file's rounded defaults
+  Eigen::VectorXd off = assembledPose(*model, 0.3, 0.8);
+  off[model->findCoordinate("q_rocker")] += 0.01;
+  EXPECT_GT(simbodyConstraintError(sys, off), 1e-3);
+}
+
+// constraint_weight = Infinity: with markers on the two cranks only, the constraints alone must
+// place the rods, the rocker, the welded cube and the tied pendulum where the hand assembly puts
+// them, from the file's default pose 0.3 and 0.8 rad away; Simbody's measure of every
+// constraint is then zero.
+TEST(Solver, EnforcesPointPointOnLineWeldAndDistanceConstraints) {
+  auto model = model::readOsim(test::fixturePath("fixtures/constraints40000.osim"));
+  sim::System sys(model);
+  auto ws = sys.createWorkspace();
+  sys.setConstraintsEnabled(*ws, false);
+  const int crank_tip = model->findMarker("crank_tip"), crank2_tip = model->findMarker("crank2_tip");
+  Solver solver(sys, {{crank_tip, 1.0}, {crank2_tip, 2.0}}, {});
+  for (const auto& [theta, phi] : {std::pair{0.3, 0.8}, std::pair{-0.4, -0.6}}) {
+    const Eigen::VectorXd q_true = assembledPose(*model, theta, phi);
+    const std::vector<Vec3> all = markersAt(sys, q_true);
+    Eigen::VectorXd q = sys.getDefaultCoordinates();
+    const FrameResult r = solver.solveFrame(*ws, {all[crank_tip], all[crank2_tip]}, {}, q);
+    EXPECT_TRUE(r.converged);
+    EXPECT_LT(r.rms_error, 1e-9);
+    // Angles compare modulo 2 pi (atan2 and the solver may pick different turns).
+    const Eigen::VectorXd d = (q - q_true).unaryExpr([](double x) { return std::remainder(x, 2 * M_PI); });
+    EXPECT_LT(d.cwiseAbs().maxCoeff(), 1e-7) << d.transpose();
+    EXPECT_LT(r.max_constraint_error, 1e-9);
+    EXPECT_LT(simbodyConstraintError(sys, q), 1e-9);
+  }
+}
+
+// A finite constraint_weight W makes the constraints a penalty: the solution minimises
+// OpenSim's objective sum w_i |e_i|^2 / sum w_i + W |c|^2, evaluated here from Simbody's marker
+// positions and Simbody's constraint errors (central differences of that sum vanish at the
+// solution), and the violation shrinks as W grows.
+TEST(Solver, FiniteConstraintWeightIsOpenSimsPenalty) {
+  auto model = model::readOsim(test::fixturePath("fixtures/constraints40000.osim"));
+  sim::System sys(model);
+  std::vector<MarkerTask> tasks;
+  for (size_t i = 0; i < model->markers.size(); ++i) tasks.push_back({int(i), 1.0 + double(i % 2)});
+  std::vector<Vec3> observed = markersAt(sys, assembledPose(*model, 0.3, 0.8));
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (Vec3& p : observed) p += Vec3(noise(rng), noise(rng), noise(rng));
+  auto objective = [&](const Eigen::VectorXd& q, double W) {
+    auto ws = sys.createWorkspace();
+    sys.realizePosition(*ws, q);
+    double sw = 0, f = 0;
+    for (size_t i = 0; i < tasks.size(); ++i) {
+      const auto& mk = model->markers[tasks[i].marker];
+      f += tasks[i].weight * (sys.findStationLocation(*ws, mk.body, mk.p_BM) - observed[i]).squaredNorm();
+      sw += tasks[i].weight;
+    }
+    f /= sw;
+    for (size_t k = 0; k < model->constraints.size(); ++k)
+      f += W * sys.calcConstraintPositionErrors(*ws, int(k)).squaredNorm();
+    return f;
+  };
+  double previous_violation = 1e30;
+  for (double W : {10.0, 1000.0}) {
+    SolverOptions options;
+    options.constraint_weight = W;
+    options.step_tolerance = 1e-12;
+    Solver solver(sys, tasks, {}, options);
+    auto ws = sys.createWorkspace();
+    sys.setConstraintsEnabled(*ws, false);
+    Eigen::VectorXd q = assembledPose(*model, 0.3, 0.8);
+    const FrameResult r = solver.solveFrame(*ws, observed, {}, q);
+    EXPECT_TRUE(r.converged);
+    const double f0 = objective(q, W), h = 1e-6;
+    for (int c = 0; c < q.size(); ++c) {
+      Eigen::VectorXd qp = q, qm = q;
+      qp[c] += h;
+      qm[c] -= h;
+      EXPECT_LT(std::abs(objective(qp, W) - objective(qm, W)) / (2 * h), 1e-6 * std::max(1.0, f0 / 1e-4))
+          << "W " << W << ", coordinate " << model->coordinates[c].name;
+    }
+    EXPECT_GT(r.max_constraint_error, 1e-7);  // a penalty, not an equality
+    EXPECT_LT(r.max_constraint_error, previous_violation);
+    previous_violation = r.max_constraint_error;
+  }
+}
+
+// With no marker and no coordinate task the solver only places the pose on the constraints
+// (the IK round trip assembles its poses so); there is nothing to minimise, which once made an
+// empty Eigen product divide by zero.
+TEST(Solver, AssemblesOntoConstraintsWithoutMarkers) {
+  auto model = model::readOsim(test::fixturePath("fixtures/constraints40000.osim"));
+  sim::System sys(model);
+  auto ws = sys.createWorkspace();
+  sys.setConstraintsEnabled(*ws, false);
+  Solver solver(sys, {}, {});
+  Eigen::VectorXd q = assembledPose(*model, 0.3, 0.8);
+  q[model->findCoordinate("q_rocker")] += 0.05;
+  q[model->findCoordinate("cube_tx")] -= 0.1;
+  const FrameResult r = solver.solveFrame(*ws, {}, {}, q);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(simbodyConstraintError(sys, q), 1e-10);
+}
+
+TEST(Solver, TrackingWithConstraintsDoesNotAllocate) {
+  auto model = model::readOsim(test::fixturePath("fixtures/constraints40000.osim"));
+  sim::System sys(model);
+  std::vector<MarkerTask> tasks;
+  for (size_t i = 0; i < model->markers.size(); ++i) tasks.push_back({int(i), 1.0});
+  std::vector<std::vector<Vec3>> frames;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int f = 0; f < 10; ++f) {
+    std::vector<Vec3> obs = markersAt(sys, assembledPose(*model, 0.05 * f, -0.04 * f));
+    for (Vec3& p : obs) p += Vec3(noise(rng), noise(rng), noise(rng));
+    frames.push_back(obs);
+  }
+  EXPECT_EQ(countAllocationsWhileTracking(model, tasks, frames), 0);
+  EXPECT_EQ(countAllocationsWhileTracking(model, tasks, frames, 100.0), 0);
 }
 
 }  // namespace

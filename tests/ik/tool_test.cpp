@@ -398,13 +398,78 @@ TEST(IkTool, UnknownJointAndFunctionTypesInTheModelStopTheRun) {
   expectNoOutputs(c);
 }
 
-TEST(IkTool, TaskNamingAMarkerTheModelLacksIsAnError) {
+// OpenSim's InverseKinematicsTool looks only at applied tasks: an unapplied task may name
+// anything; an applied marker task naming a marker the model lacks is skipped (kneesim says so);
+// an applied coordinate task must name a model coordinate.
+TEST(IkTool, TaskRulesAreOpenSims) {
   const ChainCase c = makeChainCase("task");
-  spit(c.setup, replaced(slurp(c.setup), "<IKMarkerTask name=\"mE\">", "<IKMarkerTask name=\"mZ\">"));
-  EXPECT_EQ(errorOf(c.setup), c.setup + ":32: OpenSimDocument/InverseKinematicsTool[chain]/IKTaskSet[chain_tasks]/objects/"
-                                        "IKMarkerTask[mZ]: task names marker 'mZ' which the model (" +
+  const std::string original = slurp(c.setup);
+  // Not applied: no error, the other five markers tracked as before.
+  spit(c.setup, replaced(replaced(original, "<IKMarkerTask name=\"mE\">\n\t\t\t\t\t<apply>true</apply>",
+                                  "<IKMarkerTask name=\"mZ\">\n\t\t\t\t\t<apply>false</apply>"),
+                         "<IKCoordinateTask name=\"q_pin\">", "<IKCoordinateTask name=\"q_nowhere\">"));
+  IkReport r = runSetup(c.setup);
+  EXPECT_EQ(r.markers.size(), 5u);
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("mZ"), std::string::npos) << w;
+  // Applied, the model lacks the marker: a warning, the others tracked.
+  spit(c.setup, replaced(original, "<IKMarkerTask name=\"mE\">", "<IKMarkerTask name=\"mZ\">"));
+  r = runSetup(c.setup);
+  EXPECT_EQ(r.markers.size(), 5u);
+  bool warned = false;
+  for (const auto& w : r.warnings)
+    warned = warned || w == "1 applied marker task names a marker the model (" + c.dir +
+                                "/chain40000.osim) does not have, not tracked: mZ";
+  EXPECT_TRUE(warned);
+  // Applied coordinate task naming no coordinate: an error at the task, and no output.
+  fs::remove_all(c.dir + "/results");
+  spit(c.setup, replaced(original, "<IKCoordinateTask name=\"q_pin\">\n\t\t\t\t\t<apply>false</apply>",
+                         "<IKCoordinateTask name=\"q_nowhere\">\n\t\t\t\t\t<apply>true</apply>"));
+  EXPECT_EQ(errorOf(c.setup), c.setup + ":36: OpenSimDocument/InverseKinematicsTool[chain]/IKTaskSet[chain_tasks]/objects/"
+                                        "IKCoordinateTask[q_nowhere]: task names coordinate 'q_nowhere' which the model (" +
                                   c.dir + "/chain40000.osim) does not have");
   expectNoOutputs(c);
+  // No applied marker task: every model marker found in the data, at weight 1 (OpenSim's default).
+  std::string none = original;
+  for (const char* mk : {"mA", "mA2", "mB", "mC", "mD", "mE"})
+    none = replaced(none, std::string("<IKMarkerTask name=\"") + mk + "\">\n\t\t\t\t\t<apply>true</apply>",
+                    std::string("<IKMarkerTask name=\"") + mk + "\">\n\t\t\t\t\t<apply>false</apply>");
+  spit(c.setup, none);
+  r = runSetup(c.setup);
+  EXPECT_EQ(r.markers.size(), 6u);
+  EXPECT_LT(r.max_error, 1e-6);
+}
+
+// OpenSim clips the time range to the data and moves each end to the nearest frame: 0.004 to
+// 0.186 s over frames every 0.01 s from 0 is all 20 frames, 0 to 0.19 s.
+TEST(IkTool, TimeRangeEndsMoveToTheNearestFrames) {
+  const ChainCase c = makeChainCase("nearest");
+  spit(c.setup, replaced(slurp(c.setup), "<time_range>0 0.19", "<time_range>0.004 0.186"));
+  IkReport r = runSetup(c.setup);
+  ASSERT_EQ(r.frames_solved, 20);
+  EXPECT_NEAR(r.time.front(), 0.0, 1e-12);
+  EXPECT_NEAR(r.time.back(), 0.19, 1e-12);
+  spit(c.setup, replaced(slurp(c.setup), "<time_range>0.004 0.186", "<time_range>-1 0.126"));
+  r = runSetup(c.setup);
+  ASSERT_EQ(r.frames_solved, 14);  // 0 to 0.13 s
+  EXPECT_NEAR(r.time.back(), 0.13, 1e-12);
+}
+
+// Components kneesim reads past that pose the model in OpenSim (here a ligament) are named in
+// one warning line of the IK run.
+TEST(IkTool, WarnsWhenIgnoredComponentsPoseTheModel) {
+  const ChainCase c = makeChainCase("ligament");
+  const std::string model = c.dir + "/chain40000.osim";
+  spit(model, replaced(slurp(model), "<ForceSet name=\"forceset\">\n\t\t\t<objects>",
+                       "<ForceSet name=\"forceset\">\n\t\t\t<objects><Blankevoort1991Ligament name=\"mcl\"/>"));
+  const IkReport r = runSetup(c.setup);
+  int lines = 0;
+  for (const auto& w : r.warnings)
+    if (w.find("not simulated; in OpenSim they help decide where the bodies go") != std::string::npos) {
+      ++lines;
+      EXPECT_EQ(w, model + ": 1 ligament (Blankevoort1991Ligament) not simulated; in OpenSim they help decide where the "
+                           "bodies go, here the kinematics ignore them");
+    }
+  EXPECT_EQ(lines, 1);
 }
 
 TEST(IkTool, TaskMarkerMissingFromTheDataIsAWarning) {
