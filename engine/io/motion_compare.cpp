@@ -25,23 +25,31 @@ MotionComparison compareMotions(const Storage& a, const Storage& b, const std::s
   MotionComparison out;
   out.rows_first = a.getNumRows();
   out.rows_second = b.getNumRows();
-  // Row pairs by time (both files are in time order; a two-pointer walk).
-  std::vector<std::pair<int, int>> rows;
-  for (int i = 0, j = 0; i < a.getNumRows() && j < b.getNumRows();) {
-    const double d = a.data(i, ta) - b.data(j, tb);
-    if (std::abs(d) <= time_tolerance) {
-      rows.emplace_back(i, j);
-      ++i;
-      ++j;
-    } else if (d < 0) {
-      ++i;
+  // Each row of a: the row of b at its time (j1 = j0), or the two rows around it and the weight
+  // of the later one (both files are in time order; a two-pointer walk).
+  struct Sample {
+    int i, j0, j1;
+    double w;
+  };
+  std::vector<Sample> rows;
+  const int nb = b.getNumRows();
+  for (int i = 0, j = 0; i < a.getNumRows(); ++i) {
+    const double t = a.data(i, ta);
+    while (j + 1 < nb && b.data(j + 1, tb) <= t + time_tolerance) ++j;
+    if (nb == 0) break;
+    if (std::abs(b.data(j, tb) - t) <= time_tolerance) {
+      rows.push_back({i, j, j, 0.0});
+      ++out.rows_matched;
+    } else if (j + 1 < nb && b.data(j, tb) < t && t < b.data(j + 1, tb)) {
+      const double w = (t - b.data(j, tb)) / (b.data(j + 1, tb) - b.data(j, tb));
+      rows.push_back({i, j, j + 1, w});
+      ++out.rows_interpolated;
     } else {
-      ++j;
+      ++out.rows_outside;
     }
   }
-  out.rows_matched = int(rows.size());
   if (rows.empty())
-    throw InputError({b_label, 0, ""}, "expected rows at the times of the first motion, got none within " +
+    throw InputError({b_label, 0, ""}, "expected rows at or around the times of the first motion, got none within " +
                                            std::to_string(time_tolerance) + " s");
   for (size_t c = 0; c < a.labels.size(); ++c) {
     if (int(c) == ta) continue;
@@ -53,8 +61,9 @@ MotionComparison compareMotions(const Storage& a, const Storage& b, const std::s
     ColumnDifference d;
     d.label = a.labels[c];
     double sum2 = 0;
-    for (const auto& [i, j] : rows) {
-      const double e = a.data(i, Eigen::Index(c)) - b.data(j, cb);
+    for (const Sample& r : rows) {
+      const double vb = (1 - r.w) * b.data(r.j0, cb) + r.w * b.data(r.j1, cb);
+      const double e = a.data(r.i, Eigen::Index(c)) - vb;
       sum2 += e * e;
       d.max = std::max(d.max, std::abs(e));
     }

@@ -26,6 +26,12 @@ Eigen::VectorXd Storage::getColumn(const std::string& label) const {
 
 namespace {
 
+// The standard lines OpenSim writes in every storage header.
+const char* const kUnitsLine = "Units are S.I. units (second, meters, Newtons, ...)";
+const char* const kDegreesLine =
+    "If the header above contains a line with 'inDegrees', this indicates whether rotational values are in degrees "
+    "(yes) or radians (no).";
+
 bool isReservedKey(const std::string& key) {
   return equalsIgnoreCase(key, "version") || equalsIgnoreCase(key, "nRows") || equalsIgnoreCase(key, "nColumns") ||
          equalsIgnoreCase(key, "inDegrees");
@@ -55,7 +61,7 @@ Storage readStorage(const std::string& path) {
         continue;
       }
     }
-    if (t.empty()) continue;
+    if (t.empty() || t == kUnitsLine || t == kDegreesLine) continue;
     const size_t eq = t.find('=');
     if (eq != std::string_view::npos) {
       const std::string key(trim(t.substr(0, eq)));
@@ -159,6 +165,8 @@ std::string formatStorage(const Storage& s) {
     else
       out += k + "=" + v + "\n";
   }
+  // OpenSim's Storage::print writes these two lines in every header.
+  out += std::string("\n") + kUnitsLine + "\n" + kDegreesLine + "\n\n";
   out += "endheader\n";
   for (size_t c = 0; c < s.labels.size(); ++c) {
     if (c) out += '\t';

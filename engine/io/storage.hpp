@@ -41,8 +41,9 @@ struct Storage {
 /// with the wrong number of values, a non-number, or a row count different from nRows.
 Storage readStorage(const std::string& path);
 
-/// Writes @p storage in the modern OpenSim format (version=1, nRows, nColumns, inDegrees, the
-/// other header pairs as key=value, endheader), tab separated, numbers like OpenSim's "%.8f"
+/// Writes @p storage in the modern OpenSim format as OpenSim's Storage::print writes it (name,
+/// version=1, nRows, nColumns, inDegrees, the other header pairs as key=value, OpenSim's two
+/// lines on units and inDegrees, endheader), tab separated, numbers like OpenSim's "%.8f"
 /// (values below 1e-3 in magnitude keep 9 significant digits instead), NaN as "NaN", atomically.
 void writeStorage(const std::string& path, const Storage& storage);
 

@@ -45,12 +45,27 @@ TEST(MotionCompare, MatchesRowsByTimeAndComputesRmsAndMaxPerColumn) {
   EXPECT_EQ(c.only_in_second, std::vector<std::string>{"only_b"});
 }
 
+// Times that do not line up (a TRC's 3 decimals against OpenSim's output): the second motion is
+// interpolated linearly at the first one's times; rows beyond its span are left out and counted.
+TEST(MotionCompare, InterpolatesTheSecondMotionBetweenItsRows) {
+  const Storage a = motion({"time", "x"}, {{0.05, 0.5}, {0.15, 2.0}, {0.2, 4.0}, {0.3, 9.0}});
+  const Storage b = motion({"time", "x"}, {{0.0, 0.0}, {0.1, 1.0}, {0.2, 4.0}});
+  const MotionComparison c = compareMotions(a, b, "b.mot");
+  EXPECT_EQ(c.rows_matched, 1);       // 0.2
+  EXPECT_EQ(c.rows_interpolated, 2);  // 0.05 -> 0.5, 0.15 -> 2.5
+  EXPECT_EQ(c.rows_outside, 1);       // 0.3
+  EXPECT_EQ(c.getRowsCompared(), 3);
+  ASSERT_EQ(c.columns.size(), 1u);
+  EXPECT_NEAR(c.columns[0].rms, std::sqrt(0.25 / 3.0), 1e-15);  // differences 0, -0.5, 0
+  EXPECT_NEAR(c.columns[0].max, 0.5, 1e-15);
+}
+
 TEST(MotionCompare, RefusesMixedAngleUnitsAndDisjointTimes) {
   const Storage a = motion({"time", "x"}, {{0.1, 1}});
   EXPECT_THAT(inputErrorOf([&] { compareMotions(a, motion({"time", "x"}, {{0.1, 1}}, false), "rad.mot"); }),
               HasSubstr("rad.mot: inDegrees: expected angles in degrees like the first motion, got radians"));
   EXPECT_THAT(inputErrorOf([&] { compareMotions(a, motion({"time", "x"}, {{0.5, 1}}), "late.mot"); }),
-              HasSubstr("late.mot: expected rows at the times of the first motion, got none"));
+              HasSubstr("late.mot: expected rows at or around the times of the first motion, got none"));
   EXPECT_THAT(inputErrorOf([&] { compareMotions(a, motion({"t", "x"}, {{0.1, 1}}), "notime.mot"); }),
               HasSubstr("notime.mot: expected a time column"));
 }
