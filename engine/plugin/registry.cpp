@@ -13,6 +13,18 @@ namespace kneesim::plugin {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+/// kneesim/plugins next to the library holding this code: <prefix>/lib/kneesim/plugins once
+/// installed, wherever the prefix was moved to ("" if the library cannot be located).
+std::string findPluginDirBesideLibrary() {
+  Dl_info info;
+  if (dladdr(reinterpret_cast<void*>(&findPluginDirBesideLibrary), &info) == 0 || !info.dli_fname) return "";
+  return (fs::path(info.dli_fname).parent_path() / "kneesim" / "plugins").lexically_normal().string();
+}
+
+}  // namespace
+
 struct Registry::Library {
   std::string path;
   void* handle = nullptr;
@@ -25,6 +37,8 @@ Registry::Registry() {
   if (const char* env = std::getenv("KNEESIM_PLUGIN_PATH"))
     for (auto d : splitOn(env, ':'))
       if (!d.empty()) search_dirs_.emplace_back(d);
+  if (const std::string beside = findPluginDirBesideLibrary(); !beside.empty() && fs::is_directory(beside))
+    search_dirs_.push_back(beside);
 #ifdef KNEESIM_PLUGIN_BUILD_DIR
   search_dirs_.emplace_back(KNEESIM_PLUGIN_BUILD_DIR);
 #endif

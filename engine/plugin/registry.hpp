@@ -31,7 +31,8 @@ class Registry {
   void loadPlugin(const std::string& name_or_path, const SourceLocation& context = {});
 
   /// Folders searched by loadPlugin, in order: those added here, then $KNEESIM_PLUGIN_PATH
-  /// (colon-separated), then the build and install folders compiled into the caller.
+  /// (colon-separated), then kneesim/plugins beside the engine library (an installed prefix,
+  /// wherever it was moved), then the build and install folders compiled into the library.
   void addSearchDirectory(const std::string& dir);
   const std::vector<std::string>& getSearchDirectories() const { return search_dirs_; }
 

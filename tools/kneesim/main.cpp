@@ -12,6 +12,7 @@
 #include "ik/tool.hpp"
 #include "io/motion_compare.hpp"
 #include "io/storage.hpp"
+#include "model_commands.hpp"
 #include "tool/run.hpp"
 
 namespace {
@@ -31,6 +32,11 @@ void showProgress(const std::string& what, int done, int total) {
 int main(int argc, char** argv) {
   CLI::App app{"kneesim: OpenSim-style musculoskeletal engine for instrumented-knee studies"};
   app.require_subcommand(1);
+  // Subcommands hand options they do not know to the app, so global flags go anywhere
+  // (`kneesim ik ... -q`); subcommands added below inherit this.
+  app.fallthrough();
+  app.set_version_flag("--version", std::string("kneesim ") + KNEESIM_VERSION);
+  app.footer("Each subcommand has its own --help. Manual: man kneesim; docs/cli.md.");
   bool quiet = false;
   app.add_flag("-q,--quiet", quiet, "Print no summary");
 
@@ -60,12 +66,19 @@ int main(int argc, char** argv) {
 
   // `kneesim compare-motion A B`: per-column RMS difference, as OpenSim's regression tests do.
   std::string motion_a, motion_b;
-  double compare_tolerance = -1;
-  auto* cmpcmd = app.add_subcommand("compare-motion", "Compare two motions (.mot/.sto) column by column at matching times");
+  double compare_tolerance = -1, time_tolerance = 1e-6;
+  auto* cmpcmd = app.add_subcommand(
+      "compare-motion", "Compare two motions (.mot/.sto) column by column, the second interpolated at the first one's times");
   cmpcmd->add_option("first", motion_a, "Motion, e.g. kneesim's result")->required();
   cmpcmd->add_option("second", motion_b, "Reference motion, e.g. OpenSim's stored answer")->required();
   cmpcmd->add_option("--tolerance", compare_tolerance,
                      "Exit with status 3 if any column's RMS difference exceeds this (the files' unit)");
+  cmpcmd->add_option("--time-tolerance", time_tolerance,
+                     "Rows within this many seconds count as the same time; others are interpolated (default 1e-6)");
+
+  // `kneesim model info|check MODEL` (tools/kneesim/model_commands.cpp).
+  kneesim::cli::ModelCommandState model_state;
+  kneesim::cli::addModelCommands(app, model_state);
 
   // Sim-to-real gap diagnosis: `kneesim gap` and `kneesim synth` (tools/kneesim/gap_commands.cpp).
   kneesim::cli::GapCommandState gap_state;
@@ -87,6 +100,8 @@ int main(int argc, char** argv) {
       kneesim::tool::runSetupFile(setup, opt);
     } else if (kneesim::cli::isBatchCommand(batch_state)) {
       kneesim::cli::runBatchCommand(batch_state, quiet);
+    } else if (kneesim::cli::isModelCommand(model_state)) {
+      return kneesim::cli::runModelCommand(model_state, quiet);
     } else if (kneesim::cli::isGapCommand(gap_state)) {
       kneesim::cli::runGapCommand(gap_state, quiet);
     } else if (*ikcmd) {
@@ -117,9 +132,11 @@ int main(int argc, char** argv) {
     } else if (*cmpcmd) {
       const auto a = kneesim::io::readStorage(motion_a);
       const auto b = kneesim::io::readStorage(motion_b);
-      const auto cmp = kneesim::io::compareMotions(a, b, motion_b);
-      std::printf("%d rows matched by time (%d in %s, %d in %s), %zu columns compared\n", cmp.rows_matched,
-                  cmp.rows_first, motion_a.c_str(), cmp.rows_second, motion_b.c_str(), cmp.columns.size());
+      const auto cmp = kneesim::io::compareMotions(a, b, motion_b, time_tolerance);
+      std::printf("%d rows compared (%d in %s, %d in %s): %d at the same time, %d with %s interpolated linearly, "
+                  "%d outside its time span left out; %zu columns compared\n",
+                  cmp.getRowsCompared(), cmp.rows_first, motion_a.c_str(), cmp.rows_second, motion_b.c_str(),
+                  cmp.rows_matched, cmp.rows_interpolated, motion_b.c_str(), cmp.rows_outside, cmp.columns.size());
       std::printf("  %-24s %12s %12s\n", "column", "rms", "max");
       for (const auto& c : cmp.columns) std::printf("  %-24s %12.6f %12.6f\n", c.label.c_str(), c.rms, c.max);
       for (const auto& l : cmp.only_in_first) std::printf("  only in %s: %s\n", motion_a.c_str(), l.c_str());
