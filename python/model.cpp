@@ -10,8 +10,7 @@
 
 #include "bindings.hpp"
 #include "core/strings.hpp"
-#include "model/osim_reader.hpp"
-#include "model/urdf.hpp"
+#include "model/read_model.hpp"
 
 namespace kneesim::python {
 
@@ -20,10 +19,7 @@ const sim::System& ModelHandle::getSystem() const {
   return *system_;
 }
 
-model::ModelPtr readModelFile(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw InputError({path, 0, ""}, "model file not found");
-  return endsWith(toLower(path), ".urdf") ? model::readUrdf(path) : model::readOsim(path);
-}
+model::ModelPtr readModelFile(const std::string& path) { return model::readModel(path); }
 
 namespace {
 
@@ -37,6 +33,8 @@ const char* toString(model::JointType t) {
     case model::JointType::Universal: return "universal";
     case model::JointType::Gimbal: return "gimbal";
     case model::JointType::Custom: return "custom";
+    case model::JointType::Ellipsoid: return "ellipsoid";
+    case model::JointType::Scapulothoracic: return "scapulothoracic";
   }
   return "?";
 }

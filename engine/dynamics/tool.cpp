@@ -7,8 +7,7 @@
 
 #include "core/strings.hpp"
 #include "core/xml.hpp"
-#include "model/osim_reader.hpp"
-#include "model/urdf.hpp"
+#include "model/read_model.hpp"
 
 namespace kneesim::dynamics {
 
@@ -152,8 +151,7 @@ double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
 
 model::ModelPtr loadModel(const IdSetup& setup) {
   if (!fs::exists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
-  if (endsWith(toLower(setup.model_file), ".urdf")) return model::readUrdf(setup.model_file);
-  return model::readOsim(setup.model_file);
+  return model::readModel(setup.model_file);
 }
 
 /// Whether an ignored model component is a force OpenSim would apply in inverse dynamics.
