@@ -98,6 +98,11 @@ IkResult solveIk(const ModelHandle& model, const py::object& markers, const py::
     t.name = name;
     t.weight = w;
     t.where = {"", 0, "solve_ik/weights[" + name + "]"};
+    // A setup file's task the model lacks is skipped, as OpenSim does; a weight given here by
+    // name is a typo to report.
+    if (model.get().findMarker(name) < 0)
+      throw InputError(t.where, "task names marker '" + name + "' which the model (" + setup.model_file +
+                                    ") does not have");
     setup.tasks.push_back(t);
   }
   std::map<std::string, double> coordinate_tasks = coordinate_weights;
