@@ -21,21 +21,15 @@ grep -q "^kneesim [0-9]" "$tmp/out" || fail "installed --version: $(cat "$tmp/ou
 [ -f "$tmp/moved/share/man/man1/kneesim.1" ] || fail "no manual page installed"
 [ -f "$tmp/moved/share/bash-completion/completions/kneesim" ] || fail "no bash completion installed"
 
-# The OpenSim IK case from the moved prefix, against OpenSim's answer.
-if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then
-  mkdir -p "$tmp/case"
-  cp "$data"/opensim-ik-tests/* "$tmp/case/"
-  env -u LD_LIBRARY_PATH "$exe" -q run "$tmp/case/subject01_Setup_InverseKinematics.xml" >"$tmp/out" 2>&1 \
-    || fail "installed kneesim run exited with $?: $(cat "$tmp/out")"
-  env -u LD_LIBRARY_PATH "$exe" compare-motion "$tmp/case/subject01_walk1_ik_test.mot" "$tmp/case/std_subject01_walk1_ik.mot" \
-    --tolerance 0.2 >"$tmp/out" 2>&1 || fail "installed IK against OpenSim's answer: $(tail -2 "$tmp/out")"
-else
-  # Without the data: the chain fixture.
-  cp "$src/tests/model/fixtures/chain40000.osim" "$src/tests/ik/fixtures/chain.trc" "$tmp/"
-  env -u LD_LIBRARY_PATH "$exe" -q ik -m "$tmp/chain40000.osim" -t "$tmp/chain.trc" -o "$tmp/out.mot" \
-    || fail "installed kneesim ik exited with $?"
-fi
-
+# The OpenSim IK case (data/, always there) from the moved prefix, against OpenSim's answer.
+[ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ] \
+  || { echo "FAIL: no $data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml (KNEESIM_DATA_DIR)"; exit 1; }
+mkdir -p "$tmp/case"
+cp "$data"/opensim-ik-tests/* "$tmp/case/"
+env -u LD_LIBRARY_PATH "$exe" -q run "$tmp/case/subject01_Setup_InverseKinematics.xml" >"$tmp/out" 2>&1 \
+  || fail "installed kneesim run exited with $?: $(cat "$tmp/out")"
+env -u LD_LIBRARY_PATH "$exe" compare-motion "$tmp/case/subject01_walk1_ik_test.mot" "$tmp/case/std_subject01_walk1_ik.mot" \
+  --tolerance 0.2 >"$tmp/out" 2>&1 || fail "installed IK against OpenSim's answer: $(tail -2 "$tmp/out")"
 # Plugins: installed under lib/kneesim/plugins, and the installed engine looks there first (the
 # one-line error for a plugin that does not exist lists the folders it searched).
 [ -f "$tmp/moved/lib/kneesim/plugins/libkneesim_hertz.so" ] || fail "no plugin installed under lib/kneesim/plugins"

@@ -57,13 +57,16 @@ grep -qF "2 rows compared (3 in $tmp/a.mot, 3 in $tmp/b.mot): 0 at the same time
   || fail "compare-motion: $(head -1 "$tmp/out")"
 grep -q "x  *0.353553  *0.500000" "$tmp/out" || fail "compare-motion column: $(grep ' x ' "$tmp/out")"
 
-# OpenSim's IK case: its TRC times have 3 decimals, OpenSim's answer more; every row compares.
+# OpenSim's IK case (data/, always there): its TRC times have 3 decimals, OpenSim's answer
+# more; every row compares.
 if [ -f "$data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml" ]; then
   mkdir -p "$tmp/opensim"
   cp "$data"/opensim-ik-tests/* "$tmp/opensim/"
   "$exe" -q run "$tmp/opensim/subject01_Setup_InverseKinematics.xml" || fail "OpenSim IK case exited with $?"
   "$exe" compare-motion "$tmp/opensim/subject01_walk1_ik_test.mot" "$tmp/opensim/std_subject01_walk1_ik.mot" >"$tmp/out" 2>&1
   grep -q "^73 rows compared" "$tmp/out" || fail "OpenSim IK comparison: $(head -1 "$tmp/out")"
+else
+  fail "no $data/opensim-ik-tests/subject01_Setup_InverseKinematics.xml (KNEESIM_DATA_DIR)"
 fi
 
 # Bash completion: subcommands, options of the subcommand typed, and `model`'s subcommands.
