@@ -340,6 +340,7 @@ struct Workspace::Impl {
   SimTK::Vector mobility_forces, udot, residual;
   SimTK::Vector_<SimTK::SpatialVec> body_forces;
   std::vector<Eigen::Matrix<double, 6, 1>> subtree;  // per body: force on its subtree
+  std::vector<Eigen::Vector3d> p_GBody;              // per body: its origin in ground
 };
 
 Workspace::Workspace(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -597,6 +598,7 @@ std::unique_ptr<Workspace> System::createWorkspace() const {
   impl->residual.resize(impl_->nu);
   impl->body_forces.resize(impl_->matter.getNumBodies());
   impl->subtree.assign(model_->bodies.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  impl->p_GBody.assign(model_->bodies.size(), Eigen::Vector3d::Zero());
   impl_->system.realize(impl->state, SimTK::Stage::Position);
   return std::unique_ptr<Workspace>(new Workspace(std::move(impl)));
 }
@@ -684,22 +686,23 @@ void System::calcGeneralizedForcesFromBodyForces(Workspace& ws, const SpatialCol
   const model::Model& m = *model_;
   KNEESIM_CHECK(F.cols() == int(m.bodies.size()) && tau.size() == getNumCoordinates(),
                 "body force and generalised force sizes do not match the model");
-  if (w.subtree.size() != m.bodies.size()) w.subtree.resize(m.bodies.size());
   for (size_t b = 1; b < m.bodies.size(); ++b) {
     const SimTK::Vec3& p = d.matter.getMobilizedBody(d.mobod[b]).getBodyOriginLocation(w.state);
-    w.p_GB[b] = Eigen::Vector3d(p[0], p[1], p[2]);
-    w.subtree[b].head<3>() = F.col(b).head<3>() + w.p_GB[b].cross(Eigen::Vector3d(F.col(b).tail<3>()));
+    w.p_GBody[b] = Eigen::Vector3d(p[0], p[1], p[2]);
+    w.subtree[b].head<3>() = F.col(b).head<3>() + w.p_GBody[b].cross(Eigen::Vector3d(F.col(b).tail<3>()));
     w.subtree[b].tail<3>() = F.col(b).tail<3>();
   }
   for (auto j = m.joints.rbegin(); j != m.joints.rend(); ++j)  // children before parents
     if (j->parent_body > 0) w.subtree[j->parent_body] += w.subtree[j->child_body];
   for (size_t c = 0; c < m.coordinates.size(); ++c) {
-    const model::Coordinate& co = m.coordinates[c];
-    const int a = m.joints[co.joint].child_body;
-    const SimTK::SpatialVec& H =
-        d.matter.getMobilizedBody(d.mobod[a]).getHCol(w.state, SimTK::MobilizerUIndex(co.index_in_joint));
+    // The coordinate's own mobilizer (a ScapulothoracicJoint chains three above its body); the
+    // subtree it moves is still that of the joint's child body.
+    const int a = m.joints[m.coordinates[c].joint].child_body;
+    const SimTK::MobilizedBody& mb = d.matter.getMobilizedBody(d.coord_mobod[c]);
+    const SimTK::SpatialVec& H = mb.getHCol(w.state, SimTK::MobilizerUIndex(d.coord_mq[c]));
+    const SimTK::Vec3& o = mb.getBodyOriginLocation(w.state);
     const Eigen::Vector3d f = w.subtree[a].tail<3>();
-    const Eigen::Vector3d M = w.subtree[a].head<3>() - w.p_GB[a].cross(f);
+    const Eigen::Vector3d M = w.subtree[a].head<3>() - Eigen::Vector3d(o[0], o[1], o[2]).cross(f);
     tau[int(c)] = H[0][0] * M[0] + H[0][1] * M[1] + H[0][2] * M[2] + H[1][0] * f[0] + H[1][1] * f[1] + H[1][2] * f[2];
   }
 }
