@@ -1,6 +1,8 @@
 // OpenSim's AnalyzeTool running StaticOptimization: setup, frame loop, result files.
 #include "muscle/analyze_tool.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -14,6 +16,7 @@
 #include "dynamics/trajectory.hpp"
 #include "model/osim_forces.hpp"
 #include "model/osim_reader.hpp"
+#include "muscle/joint_reaction.hpp"
 
 namespace kneesim::muscle {
 
@@ -59,6 +62,21 @@ void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   s.so.max_iterations = int(finiteChild(so, "optimizer_max_iterations", 100, "a positive count"));
   if (s.so.max_iterations < 1)
     so.child("optimizer_max_iterations").fail("expected a positive count, got " + so.childText("optimizer_max_iterations"));
+}
+
+void readJointReaction(const xml::Node& jr, const std::string& dir, AnalyzeSetup& s) {
+  xml::checkChildren(jr, {"on", "start_time", "end_time", "step_interval", "in_degrees", "forces_file", "joint_names",
+                          "apply_on_bodies", "express_in_frame"});
+  for (const xml::Node& c : jr.children()) s.locations["JointReaction/" + c.name()] = c.where();
+  s.jr_on = jr.childBool("on", true);
+  if (!jr.nameAttr().empty()) s.jr_name = jr.nameAttr();
+  s.jr_start = finiteChild(jr, "start_time", s.jr_start, "a time in s");
+  s.jr_end = finiteChild(jr, "end_time", s.jr_end, "a time in s");
+  s.jr_forces_file = optionalPath(jr, "forces_file", dir);
+  if (xml::Node n = jr.child("joint_names")) s.jr_joints = n.toWords();
+  if (xml::Node n = jr.child("apply_on_bodies")) s.jr_on_bodies = n.toWords();
+  if (xml::Node n = jr.child("express_in_frame")) s.jr_frames = n.toWords();
+  if (s.jr_on && s.jr_joints.empty()) jr.fail("expected joint names (or All) in <joint_names>, got none");
 }
 
 double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
@@ -138,13 +156,13 @@ AnalyzeSetup readAnalyzeSetup(const std::string& path) {
   s.replace_force_set = tool.childBool("replace_force_set", false);
   if (xml::Node f = tool.child("force_set_files"))
     for (const std::string& w : f.toWords()) s.force_set_files.push_back(xml::resolvePath(dir, w));
-  if (!optionalPath(tool, "states_file", dir).empty())
-    tool.child("states_file").fail("expected <coordinates_file> instead (kneesim reads coordinates, not states), got a states file");
+  s.states_file = optionalPath(tool, "states_file", dir);
   if (!optionalPath(tool, "speeds_file", dir).empty())
     tool.child("speeds_file").fail("expected no speeds file (kneesim differentiates the coordinates, as OpenSim does without one)");
   s.external_loads_file = optionalPath(tool, "external_loads_file", dir);
   s.coordinates_file = optionalPath(tool, "coordinates_file", dir);
-  if (s.coordinates_file.empty()) tool.fail("missing <coordinates_file> (expected the .mot of the coordinates, e.g. IK's output)");
+  if (s.coordinates_file.empty() && s.states_file.empty())
+    tool.fail("missing <coordinates_file> (expected the .mot of the coordinates, e.g. IK's output)");
   // OpenSim writes into the setup's folder when results_directory is empty.
   const std::string results = optionalPath(tool, "results_directory", dir);
   s.results_directory = results.empty() ? xml::resolvePath(dir, ".") : results;
@@ -156,52 +174,103 @@ AnalyzeSetup readAnalyzeSetup(const std::string& path) {
     for (const xml::Node& a : objects ? objects.children() : std::vector<xml::Node>{}) {
       if (a.name() == "StaticOptimization")
         readStaticOptimization(a, s);
+      else if (a.name() == "JointReaction")
+        readJointReaction(a, dir, s);
       else
-        a.fail("unknown analysis <" + a.name() + "> (expected StaticOptimization)");
+        a.fail("unknown analysis <" + a.name() + "> (expected StaticOptimization or JointReaction)");
     }
   }
-  if (!s.so_on) tool.fail("expected an <AnalysisSet> with a StaticOptimization that is <on>, got none");
+  if (!s.so_on && !s.jr_on)
+    tool.fail("expected an <AnalysisSet> with a StaticOptimization or a JointReaction that is <on>, got none");
+  if (s.so_on && s.coordinates_file.empty())
+    tool.fail("static optimization needs a <coordinates_file> (a states file gives no accelerations to kneesim)");
   return s;
 }
 
-AnalyzeReport runAnalyzeTool(const AnalyzeSetup& setup) {
-  AnalyzeReport report;
-  const model::ModelPtr model = loadAnalyzeModel(setup);
-  for (const model::IgnoredComponent& c : model->ignored)
-    if (endsWith(c.type, "Muscle") || endsWith(c.type, "Actuator") || endsWith(c.type, "Force") || endsWith(c.type, "Ligament"))
-      report.warnings.push_back(c.type + " " + c.name + " is not simulated: static optimization leaves it out");
-  if (!fs::exists(setup.coordinates_file))
-    throw InputError(setup.locate("coordinates_file"), "coordinates file not found: " + setup.coordinates_file);
-  const io::Storage coords = io::readStorage(setup.coordinates_file);
-  dynamics::CoordinateSmoothingOptions smoothing;
-  smoothing.cutoff_hz = setup.cutoff_hz;
-  smoothing.in_degrees = setup.in_degrees >= 0 ? setup.in_degrees == 1 : dynamics::fileSaysDegrees(coords);
-  const dynamics::CoordinateTrajectories traj(*model, coords, setup.coordinates_file, smoothing);
-  for (const std::string& c : traj.getMissing())
-    report.warnings.push_back("coordinate '" + c + "' is not in the coordinates file: held at its default value");
-  const int n = int(model->coordinates.size());
-  const AnalyzeTrajectory states(traj, n);
+namespace {
 
-  std::unique_ptr<dynamics::ExternalLoads> loads;
-  if (!setup.external_loads_file.empty()) {
-    if (!fs::exists(setup.external_loads_file))
-      throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
-    loads = std::make_unique<dynamics::ExternalLoads>(dynamics::readExternalLoads(setup.external_loads_file), *model);
+/// The motion an AnalyzeTool analyses: a coordinate file splined as OpenSim does, or a states file
+/// read row by row.
+class AnalyzeMotion {
+ public:
+  AnalyzeMotion(const AnalyzeSetup& setup, const model::Model& model, std::vector<std::string>& warnings)
+      : n_(int(model.coordinates.size())) {
+    const bool use_states = setup.coordinates_file.empty();
+    const std::string file = use_states ? setup.states_file : setup.coordinates_file;
+    if (!fs::exists(file))
+      throw InputError(setup.locate(use_states ? "states_file" : "coordinates_file"), "file not found: " + file);
+    if (!use_states) {
+      const io::Storage coords = io::readStorage(file);
+      dynamics::CoordinateSmoothingOptions smoothing;
+      smoothing.cutoff_hz = setup.cutoff_hz;
+      smoothing.in_degrees = setup.in_degrees >= 0 ? setup.in_degrees == 1 : dynamics::fileSaysDegrees(coords);
+      traj_ = std::make_unique<dynamics::CoordinateTrajectories>(model, coords, file, smoothing);
+      for (const std::string& c : traj_->getMissing())
+        warnings.push_back("coordinate '" + c + "' is not in the coordinates file: held at its default value");
+      splined_ = std::make_unique<AnalyzeTrajectory>(*traj_, n_);
+      return;
+    }
+    states_ = io::readStorage(file);
+    const int time = states_.findColumn("time");
+    if (time < 0 || states_.getNumRows() < 1) throw InputError({file, 0, "time"}, "expected a time column and rows, got none");
+    for (int r = 0; r < states_.getNumRows(); ++r) times_.push_back(states_.data(r, time));
+    for (const model::Coordinate& c : model.coordinates) {
+      q_col_.push_back(dynamics::findCoordinateColumn(states_, c.name));
+      int u = states_.findColumn(c.name + "_u");
+      for (size_t k = 0; u < 0 && k < states_.labels.size(); ++k)
+        if (endsWith(states_.labels[k], "/" + c.name + "/speed")) u = int(k);
+      u_col_.push_back(u);
+      defaults_.push_back(c.default_value);
+      to_si_.push_back(states_.in_degrees && c.motion_type == model::MotionType::Rotational ? M_PI / 180.0 : 1.0);
+      if (q_col_.back() < 0) warnings.push_back("coordinate '" + c.name + "' is not in the states file: held at its default value");
+    }
+    for (int r = 0; r < states_.getNumRows(); ++r)
+      for (int k = 1; k < int(states_.labels.size()); ++k)
+        if (!std::isfinite(states_.data(r, k)))
+          throw InputError({file, 0, states_.labels[k]}, "expected a finite value at t = " + formatSignificant(times_[r], 6) + " s, got NaN");
   }
-  const double t0 = std::max(setup.initial_time, setup.so_start), t1 = std::min(setup.final_time, setup.so_end);
-  std::vector<double> times = dynamics::selectFrameTimes(traj.getTimes(), t0, t1, traj.getStartTime(), traj.getEndTime());
-  if (times.empty())
-    throw InputError(setup.locate("initial_time"), "expected a time range overlapping the coordinates (" +
-                                                       formatSignificant(traj.getStartTime(), 6) + " to " +
-                                                       formatSignificant(traj.getEndTime(), 6) + " s), got " +
-                                                       formatSignificant(t0, 6) + " to " + formatSignificant(t1, 6) + " s");
-  if (setup.step_interval > 1) {
+
+  /// The frames OpenSim analyses in [t0, t1], every @p step-th.
+  std::vector<double> selectTimes(double t0, double t1, int step, const SourceLocation& where) const {
+    const std::vector<double>& all = traj_ ? traj_->getTimes() : times_;
+    const double first = traj_ ? traj_->getStartTime() : times_.front(), last = traj_ ? traj_->getEndTime() : times_.back();
+    std::vector<double> times = dynamics::selectFrameTimes(all, t0, t1, first, last);
+    if (times.empty())
+      throw InputError(where, "expected a time range overlapping the motion (" + formatSignificant(first, 6) + " to " +
+                                  formatSignificant(last, 6) + " s), got " + formatSignificant(t0, 6) + " to " +
+                                  formatSignificant(t1, 6) + " s");
     std::vector<double> kept;
-    for (size_t f = 0; f < times.size(); f += size_t(setup.step_interval)) kept.push_back(times[f]);
-    times.swap(kept);
+    for (size_t f = 0; f < times.size(); f += size_t(step)) kept.push_back(times[f]);
+    return kept;
   }
 
-  const auto id = std::make_shared<const dynamics::InverseDynamics>(model);
+  /// q, qdot and (coordinates only) qddot at frame time @p t.
+  void calcAt(double t, Eigen::VectorXd& q, Eigen::VectorXd& qdot, Eigen::VectorXd& qddot) const {
+    if (splined_) return splined_->calcAt(t, q, qdot, qddot);
+    const int r = int(std::lower_bound(times_.begin(), times_.end(), t - 1e-12) - times_.begin());
+    for (int c = 0; c < n_; ++c) {
+      q[c] = q_col_[c] < 0 ? defaults_[c] : states_.data(r, q_col_[c]) * to_si_[c];
+      qdot[c] = u_col_[c] < 0 ? 0.0 : states_.data(r, u_col_[c]) * to_si_[c];
+      qddot[c] = 0.0;
+    }
+  }
+
+ private:
+  int n_;
+  std::unique_ptr<dynamics::CoordinateTrajectories> traj_;
+  std::unique_ptr<AnalyzeTrajectory> splined_;
+  io::Storage states_;
+  std::vector<double> times_, defaults_, to_si_;
+  std::vector<int> q_col_, u_col_;
+};
+
+void runStaticOptimization(const AnalyzeSetup& setup, const std::shared_ptr<const dynamics::InverseDynamics>& id,
+                           const AnalyzeMotion& motion, const dynamics::ExternalLoads* loads, AnalyzeReport& report,
+                           AtomicFileSet& out) {
+  const model::Model& model = id->getModel();
+  const int n = int(model.coordinates.size());
+  const double t0 = std::max(setup.initial_time, setup.so_start), t1 = std::min(setup.final_time, setup.so_end);
+  const std::vector<double> times = motion.selectTimes(t0, t1, setup.step_interval, setup.locate("initial_time"));
   const StaticOptimization so(id, setup.so);
   auto ws = so.createWorkspace();
   const int na = int(so.getActuators().size());
@@ -210,19 +279,19 @@ AnalyzeReport runAnalyzeTool(const AnalyzeSetup& setup) {
   std::vector<int> reserve_frames(size_t(na), 0);
   const double cpu0 = cpuSeconds();
   for (size_t f = 0; f < times.size(); ++f) {
-    states.calcAt(times[f], q, qdot, qddot);
-    const SoFrameStatus st = so.solveFrame(*ws, times[f], q, qdot, qddot, loads.get());
+    motion.calcAt(times[f], q, qdot, qddot);
+    const SoFrameStatus st = so.solveFrame(*ws, times[f], q, qdot, qddot, loads);
     activations.row(Eigen::Index(f)) = ws->getActivations().transpose();
     forces.row(Eigen::Index(f)) = ws->getForces().transpose();
     for (int j = 0; j < na; ++j)
       if (!so.getActuators()[j].is_muscle && std::abs(ws->getActivations()[j]) >= 0.05) ++reserve_frames[j];
-    // The equations of motion hold to Ipopt's tolerance, scaled to the moment arms (< 1e-3 N·m).
+    // The equations of motion hold to the solver's tolerance (< 1e-3 N·m).
     if (!st.converged || st.max_violation > 1e-3) {
       ++report.failed_frames;
       report.warnings.push_back(
           "t = " + formatSignificant(times[f], 6) + " s: " + (st.converged ? "" : "the optimizer did not converge; ") +
           "the actuators fall short of inverse dynamics by " + formatSignificant(st.max_violation, 4) + " on coordinate '" +
-          (st.worst_coordinate >= 0 ? model->coordinates[st.worst_coordinate].name : std::string("?")) +
+          (st.worst_coordinate >= 0 ? model.coordinates[st.worst_coordinate].name : std::string("?")) +
           "' (too weak without reserve actuators?)");
     }
   }
@@ -230,19 +299,139 @@ AnalyzeReport runAnalyzeTool(const AnalyzeSetup& setup) {
   report.frames = int(times.size());
   for (int j = 0; j < na; ++j)
     if (!so.getActuators()[j].is_muscle) report.reserve_frames.emplace_back(so.getActuators()[j].name, reserve_frames[j]);
-
   report.activations = makeSoStorage(so, times, activations);
   report.forces = makeSoStorage(so, times, forces);
-  AtomicFileSet out;
   const std::string base = xml::resolvePath(setup.results_directory, setup.name + "_" + setup.so_name);
   out.addContents(base + "_activation.sto", io::formatStorage(report.activations));
   out.addContents(base + "_force.sto", io::formatStorage(report.forces));
+}
+
+/// The actuator forces of a forces file at time t, linearly interpolated (held beyond its ends).
+class ActuatorForces {
+ public:
+  ActuatorForces(const model::Model& model, const std::string& file, std::vector<std::string>& warnings) {
+    if (file.empty()) return;
+    table_ = io::readStorage(file);
+    time_ = table_.findColumn("time");
+    if (time_ < 0 || table_.getNumRows() < 1) throw InputError({file, 0, "time"}, "expected a time column and rows, got none");
+    auto add = [&](const std::string& name, bool muscle, int index) {
+      const int col = table_.findColumn(name);
+      if (col < 0) warnings.push_back("actuator '" + name + "' is not in the forces file: no force");
+      else columns_.push_back({col, muscle, index});
+    };
+    for (size_t i = 0; i < model.muscles.size(); ++i)
+      if (model.muscles[i].enabled) add(model.muscles[i].name, true, int(i));
+    for (size_t i = 0; i < model.actuators.size(); ++i)
+      if (model.actuators[i].enabled) add(model.actuators[i].name, false, int(i));
+  }
+  /// Adds the forces at @p t: muscles along their paths (realised in @p pws) into @p F and @p
+  /// mobility, coordinate actuators into @p mobility.
+  void addLoads(double t, const model::Model& model, const PathSet& paths, const PathWorkspace& pws,
+                sim::SpatialColumns& F, Eigen::VectorXd& mobility) const {
+    if (columns_.empty()) return;
+    const int rows = table_.getNumRows();
+    int r = 0;
+    while (r + 1 < rows && table_.data(r + 1, time_) <= t) ++r;
+    const int r1 = std::min(r + 1, rows - 1);
+    const double span = table_.data(r1, time_) - table_.data(r, time_);
+    const double w = span > 0 ? std::clamp((t - table_.data(r, time_)) / span, 0.0, 1.0) : 0.0;
+    for (const Column& c : columns_) {
+      const double f = (1 - w) * table_.data(r, c.col) + w * table_.data(r1, c.col);
+      if (c.muscle)
+        paths.addLoads(pws, c.index, f, F, mobility);
+      else
+        mobility[model.actuators[c.index].coordinate] += f;
+    }
+  }
+
+ private:
+  struct Column {
+    int col;
+    bool muscle;
+    int index;
+  };
+  io::Storage table_;
+  int time_ = -1;
+  std::vector<Column> columns_;
+};
+
+void runJointReaction(const AnalyzeSetup& setup, const std::shared_ptr<const dynamics::InverseDynamics>& id,
+                      const AnalyzeMotion& motion, const dynamics::ExternalLoads* loads, AnalyzeReport& report,
+                      AtomicFileSet& out) {
+  const model::Model& model = id->getModel();
+  const sim::System& system = id->getSystem();
+  const int n = int(model.coordinates.size());
+  const std::vector<ReactionRequest> requests =
+      resolveReactions(model, setup.jr_joints, setup.jr_on_bodies, setup.jr_frames, setup.locate("JointReaction/joint_names"));
+  if (!setup.jr_forces_file.empty() && !fs::exists(setup.jr_forces_file))
+    throw InputError(setup.locate("JointReaction/forces_file"), "forces file not found: " + setup.jr_forces_file);
+  const ActuatorForces forces(model, setup.jr_forces_file, report.warnings);
+  const double t0 = std::max(setup.initial_time, setup.jr_start), t1 = std::min(setup.final_time, setup.jr_end);
+  const std::vector<double> times = motion.selectTimes(t0, t1, 1, setup.locate("initial_time"));
+  const PathSet paths(system);
+  auto pws = paths.createWorkspace();
+  auto ws = id->createWorkspace();
+  ForwardAccelerations forward(*id);
+  Eigen::VectorXd q(n), qdot(n), qddot(n), mobility(n);
+  sim::SpatialColumns F_joint = sim::SpatialColumns::Zero(6, Eigen::Index(model.bodies.size()));
+  io::Storage& s = report.reactions;
+  s.name = "Joint Reaction Loads";
+  s.labels = {"time"};
+  for (const std::string& l : reactionLabels(model, requests)) s.labels.push_back(l);
+  s.data.resize(Eigen::Index(times.size()), Eigen::Index(s.labels.size()));
+  for (size_t f = 0; f < times.size(); ++f) {
+    motion.calcAt(times[f], q, qdot, qddot);
+    id->setState(*ws, q, qdot);
+    if (loads) loads->addBodyForces(system, ws->getSimWorkspace(), times[f], ws->updAppliedForces());
+    mobility.setZero();
+    paths.realize(ws->getSimWorkspace(), q, *pws);
+    forces.addLoads(times[f], model, paths, *pws, ws->updAppliedForces(), mobility);
+    forward.calc(*ws, q, qdot, mobility, qddot);
+    id->calcJointLoads(*ws, qddot, F_joint);
+    s.data(Eigen::Index(f), 0) = times[f];
+    for (size_t k = 0; k < requests.size(); ++k) {
+      double v[9];
+      calcReaction(system, ws->getSimWorkspace(), F_joint, requests[k], v);
+      for (int i = 0; i < 9; ++i) s.data(Eigen::Index(f), Eigen::Index(1 + 9 * k + i)) = v[i];
+    }
+  }
+  s.header.emplace_back("inDegrees", "no");
+  report.reaction_frames = int(times.size());
+  out.addContents(xml::resolvePath(setup.results_directory, setup.name + "_" + setup.jr_name + "_ReactionLoads.sto"),
+                  io::formatStorage(s));
+}
+
+}  // namespace
+
+AnalyzeReport runAnalyzeTool(const AnalyzeSetup& setup) {
+  AnalyzeReport report;
+  const model::ModelPtr model = loadAnalyzeModel(setup);
+  for (const model::IgnoredComponent& c : model->ignored)
+    if (endsWith(c.type, "Muscle") || endsWith(c.type, "Actuator") || endsWith(c.type, "Force") || endsWith(c.type, "Ligament"))
+      report.warnings.push_back(c.type + " " + c.name + " is not simulated: the analyses leave it out");
+  const AnalyzeMotion motion(setup, *model, report.warnings);
+  std::unique_ptr<dynamics::ExternalLoads> loads;
+  if (!setup.external_loads_file.empty()) {
+    if (!fs::exists(setup.external_loads_file))
+      throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
+    loads = std::make_unique<dynamics::ExternalLoads>(dynamics::readExternalLoads(setup.external_loads_file), *model);
+  }
+  const auto id = std::make_shared<const dynamics::InverseDynamics>(model);
+  AtomicFileSet out;
+  if (setup.so_on) runStaticOptimization(setup, id, motion, loads.get(), report, out);
+  if (setup.jr_on) runJointReaction(setup, id, motion, loads.get(), report, out);
   out.commit();
   report.outputs = out.getPaths();
   return report;
 }
 
 void printAnalyzeSummary(const AnalyzeReport& report, std::ostream& os) {
+  if (report.reaction_frames > 0) os << "Joint reaction: " << report.reaction_frames << " frames\n";
+  if (report.frames == 0) {
+    for (const std::string& w : report.warnings) os << "  warning: " << w << "\n";
+    for (const std::string& f : report.outputs) os << "  wrote " << f << "\n";
+    return;
+  }
   os << "Static optimization: " << report.frames << " frames, " << std::fixed << std::setprecision(2)
      << 1e3 * report.seconds_solving / std::max(1, report.frames) << " ms per frame (CPU)";
   os.unsetf(std::ios::floatfield);

@@ -1,4 +1,5 @@
-// Ipopt on one static-optimisation frame: sum |x|^p with linear equalities and bounds.
+// One static-optimisation frame: sum |x|^p with linear equalities and bounds, by Newton's method
+// on the dual for p = 2 and by Ipopt otherwise.
 #include "muscle/so_solver.hpp"
 
 #include <IpIpoptApplication.hpp>
@@ -113,13 +114,88 @@ class SoTnlp : public Ipopt::TNLP {
 
 }  // namespace
 
+BoundedMinNormSolver::BoundedMinNormSolver(int n, int m)
+    : nu_(Eigen::VectorXd::Zero(m)),
+      trial_nu_(Eigen::VectorXd::Zero(m)),
+      step_(Eigen::VectorXd::Zero(m)),
+      r_(Eigen::VectorXd::Zero(m)),
+      atnu_(Eigen::VectorXd::Zero(n)),
+      trial_x_(Eigen::VectorXd::Zero(n)),
+      J_(Eigen::MatrixXd::Zero(m, m)),
+      Jm_(Eigen::MatrixXd::Zero(m, m)),
+      AF_(Eigen::MatrixXd::Zero(m, n)),
+      ldlt_(m) {}
+
+double BoundedMinNormSolver::calcDual(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lower,
+                                      const Eigen::VectorXd& upper, const Eigen::VectorXd& nu, Eigen::VectorXd& x) {
+  // theta(nu) = min over the box of sum x^2 + nu . (A x - b), reached at x = clamp(-A^T nu / 2).
+  atnu_.noalias() = A.transpose() * nu;
+  x = (-0.5 * atnu_).cwiseMax(lower).cwiseMin(upper);
+  return x.squaredNorm() + atnu_.dot(x) - nu.dot(b);
+}
+
+bool BoundedMinNormSolver::solve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lower,
+                                 const Eigen::VectorXd& upper, double tolerance, Eigen::VectorXd& x, int& iterations) {
+  constexpr int kMaxIterations = 100;
+  if (!nu_.allFinite()) nu_.setZero();
+  double theta = calcDual(A, b, lower, upper, nu_, x);
+  // The damping's scale: the mean diagonal of A A^T / 2.
+  const double scale = std::max(0.5 * A.squaredNorm() / double(std::max<Eigen::Index>(1, A.rows())), 1e-300);
+  double mu = 1e-10 * scale;
+  bool accepted = false;
+  for (iterations = 0; iterations < kMaxIterations; ++iterations) {
+    r_.noalias() = A * x;
+    r_ -= b;  // the dual's gradient
+    if (r_.cwiseAbs().maxCoeff() <= tolerance) return true;
+    // The dual's (negative) Hessian: the free variables' columns, A_F A_F^T / 2, made definite by
+    // a tiny ridge where too few variables are free.
+    for (int j = 0; j < A.cols(); ++j) {
+      const double v = -0.5 * atnu_[j];
+      if (v > lower[j] && v < upper[j])
+        AF_.col(j) = A.col(j);
+      else
+        AF_.col(j).setZero();
+    }
+    J_.noalias() = 0.5 * AF_ * AF_.transpose();
+    // Levenberg damping: tiny while Newton steps succeed, raised while they do not.
+    accepted = false;
+    for (int tries = 0; tries < 40 && !accepted; ++tries) {
+      Jm_ = J_;
+      Jm_.diagonal().array() += mu;
+      ldlt_.compute(Jm_);
+      step_ = ldlt_.solve(r_);
+      trial_nu_ = nu_ + step_;
+      const double trial = calcDual(A, b, lower, upper, trial_nu_, trial_x_);
+      if (trial >= theta + 1e-4 * r_.dot(step_)) {
+        theta = trial;
+        nu_ = trial_nu_;
+        x = trial_x_;
+        accepted = true;
+        mu = std::max(mu * 0.1, 1e-14 * scale);
+      } else {
+        mu *= 10.0;
+      }
+    }
+    if (!accepted) break;  // no ascent left: infeasible, or converged to rounding
+  }
+  calcDual(A, b, lower, upper, nu_, x);
+  r_.noalias() = A * x;
+  r_ -= b;
+  return r_.cwiseAbs().maxCoeff() <= tolerance;
+}
+
 struct SoSolver::Impl {
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
   Ipopt::SmartPtr<SoTnlp> tnlp;
 };
 
-SoSolver::SoSolver(int num_variables, int num_constraints, double exponent, double tolerance, int max_iterations)
-    : impl_(std::make_unique<Impl>()) {
+SoSolver::SoSolver(int num_variables, int num_constraints, double exponent, double tolerance, int max_iterations,
+                   bool dedicated_qp) {
+  if (exponent == 2.0 && dedicated_qp) {
+    qp_ = std::make_unique<BoundedMinNormSolver>(num_variables, num_constraints);
+    return;
+  }
+  impl_ = std::make_unique<Impl>();
   std::lock_guard<std::mutex> lock(identify::getIpoptMutex());
   impl_->tnlp = new SoTnlp(num_variables, num_constraints, exponent);
   impl_->app = IpoptApplicationFactory();
@@ -130,7 +206,6 @@ SoSolver::SoSolver(int num_variables, int num_constraints, double exponent, doub
   o.SetNumericValue("tol", tolerance);
   o.SetStringValue("mu_strategy", "adaptive");
   o.SetStringValue("jac_c_constant", "yes");
-  o.SetStringValue("hessian_constant", exponent == 2.0 ? "yes" : "no");
   // As OpenSim sets it: rows of the equations of motion scaled to a largest gradient of 1.
   o.SetNumericValue("nlp_scaling_max_gradient", 1.0);
   impl_->app->RethrowNonIpoptException(false);
@@ -139,12 +214,15 @@ SoSolver::SoSolver(int num_variables, int num_constraints, double exponent, doub
 }
 
 SoSolver::~SoSolver() {
+  if (!impl_) return;
   std::lock_guard<std::mutex> lock(identify::getIpoptMutex());
   impl_.reset();
 }
 
 bool SoSolver::solve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, const Eigen::VectorXd& lower,
                      const Eigen::VectorXd& upper, Eigen::VectorXd& x, int& iterations) {
+  // p = 2: exact once the active bounds are found, so a tolerance near rounding.
+  if (qp_) return qp_->solve(A, b, lower, upper, 1e-10 * (1.0 + b.cwiseAbs().maxCoeff()), x, iterations);
   SoTnlp& t = *impl_->tnlp;
   t.A = &A;
   t.b = &b;

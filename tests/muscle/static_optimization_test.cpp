@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "dynamics/pendulum_model.hpp"
 #include "muscle/so_solver.hpp"
@@ -126,6 +127,49 @@ TEST(SoSolver, ActivationExponentThreeMatchesItsClosedForm) {
   ASSERT_TRUE(solver.solve(A, B, lo, hi, x, it));
   const double s = b / (r.array() * r.array().sqrt()).sum();  // x_i = s sqrt(r_i)
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(x[i], s * std::sqrt(r[i]), 1e-6);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(SoSolver, TheDedicatedQpAgreesWithIpoptOnRandomBoundedProblems) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 12, m = 4;
+    Eigen::MatrixXd A(m, n);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < n; ++j) A(i, j) = 50 * u(rng);
+    Eigen::VectorXd lo = Eigen::VectorXd::Constant(n, 0.01), hi = Eigen::VectorXd::Ones(n);
+    lo.tail(4).setConstant(-1e30);  // four reserves without bounds: always feasible
+    hi.tail(4).setConstant(1e30);
+    Eigen::VectorXd feasible(n);
+    for (int j = 0; j < n; ++j) feasible[j] = j < n - 4 ? 0.5 + 0.45 * u(rng) : u(rng);
+    const Eigen::VectorXd b = A * feasible * 1.5;  // pushes several activations onto their bounds
+    Eigen::VectorXd x_qp = Eigen::VectorXd::Zero(n), x_ip = Eigen::VectorXd::Zero(n);
+    int it = 0;
+    muscle::SoSolver qp(n, m, 2.0, 1e-10, 500), ip(n, m, 2.0, 1e-10, 500, false);
+    ASSERT_TRUE(qp.solve(A, b, lo, hi, x_qp, it));
+    ASSERT_TRUE(ip.solve(A, b, lo, hi, x_ip, it));
+    EXPECT_LT((x_qp - x_ip).cwiseAbs().maxCoeff(), 1e-6) << "trial " << trial;
+    EXPECT_LT((A * x_qp - b).cwiseAbs().maxCoeff(), 1e-10 * (1 + b.cwiseAbs().maxCoeff()));
+    EXPECT_TRUE((x_qp.array() >= lo.array() - 1e-12).all() && (x_qp.array() <= hi.array() + 1e-12).all());
+  }
+}
+
+TEST(SoSolver, TheDedicatedQpWithoutBoundsIsTheMinimumNormSolution) {
+  Eigen::MatrixXd A(2, 3);
+  A << 1, 2, 3, -1, 0.5, 2;
+  const Eigen::Vector2d b(1.0, 0.3);
+  const Eigen::VectorXd lo = Eigen::VectorXd::Constant(3, -1e30), hi = Eigen::VectorXd::Constant(3, 1e30);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(3);
+  int it = 0;
+  muscle::SoSolver qp(3, 2, 2.0, 1e-12, 100);
+  ASSERT_TRUE(qp.solve(A, b, lo, hi, x, it));
+  const Eigen::Vector3d expected = A.transpose() * (A * A.transpose()).inverse() * b;
+  EXPECT_LT((x - expected).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LE(it, 2);
 }
 
 }  // namespace
