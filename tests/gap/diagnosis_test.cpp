@@ -22,15 +22,7 @@ using ::testing::HasSubstr;
 class Diagnosis : public test::CatalogueFixture {
  protected:
   DiagnosisOptions options() const {
-    DiagnosisOptions o;
-    o.fit.free_parameters = {"E", "nu"};
-    o.fit.assumed_values = {{"nu", 0.45}};
-    o.fit.confidence.profile = false;
-    o.fit.confidence.bootstrap_samples = 0;
-    o.fit.body_mass = 66.7;
-    o.cv_folds = 5;
-    o.screen_top = 3;
-    o.max_effects = 2;
+    DiagnosisOptions o = hertzOptions();
     o.bootstrap = 300;
     return o;
   }

@@ -54,15 +54,7 @@ double rms(const std::vector<double>& a, const std::vector<double>& b) {
 // each (seed 2: other noise, other channel variations) within its noise; the baseline does not.
 TEST_F(Prediction, TheSelectedLawPredictsAHeldOutTrialWithinItsNoise) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
-  DiagnosisOptions o;
-  o.fit.free_parameters = {"E", "nu"};
-  o.fit.assumed_values = {{"nu", 0.45}};
-  o.fit.confidence.profile = false;
-  o.fit.confidence.bootstrap_samples = 0;
-  o.fit.body_mass = 66.7;
-  o.cv_folds = 5;
-  o.screen_top = 3;
-  o.max_effects = 2;
+  DiagnosisOptions o = hertzOptions();
   o.where = false;
   o.shrinkage = true;
   o.bootstrap = 0;
