@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/json.hpp"
 #include "plugin/registry.hpp"
 
 namespace kneesim::gap {
@@ -19,8 +20,6 @@ namespace {
 
 using nlohmann::json;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 }  // namespace
 
@@ -57,19 +56,19 @@ std::string formatGapModel(const GapModel& m) {
   j["synthetic"] = m.synthetic;
   j["interim_inputs"] = m.interim_inputs;
   json peaks = json::object();
-  for (const auto& [k, v] : m.emg_peaks) peaks[k] = num(v);
+  for (const auto& [k, v] : m.emg_peaks) peaks[k] = jsonNumber(v);
   j["emg_peaks_V"] = peaks;
   json ts = json::array();
   for (const auto& t : m.targets) {
     json ps = json::array();
-    for (const auto& [n, v] : t.parameters) ps.push_back({{"name", n}, {"value", num(v)}});
+    for (const auto& [n, v] : t.parameters) ps.push_back({{"name", n}, {"value", jsonNumber(v)}});
     ts.push_back({{"target", t.target},
                   {"law", t.law},
                   {"effects", t.effects},
                   {"parameters", ps},
                   {"verdict_class", t.verdict_class},
                   {"verdict", t.verdict},
-                  {"heldout_rmse_N", num(t.heldout_rmse)}});
+                  {"heldout_rmse_N", jsonNumber(t.heldout_rmse)}});
   }
   j["targets"] = ts;
   return j.dump(2) + "\n";

@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/json.hpp"
 #include "core/strings.hpp"
 #include "gap/prediction.hpp"
 #include "identify/report_json.hpp"
@@ -23,12 +24,10 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
-json interval(const identify::Interval& i) { return json::array({num(i.lower), num(i.upper)}); }
+json interval(const identify::Interval& i) { return json::array({jsonNumber(i.lower), jsonNumber(i.upper)}); }
 
 json meanInterval(const MeanInterval& m) {
-  return {{"mean", num(m.mean)}, {"lower", num(m.lower)}, {"upper", num(m.upper)}, {"sd", num(m.sd)}, {"n", m.n}};
+  return {{"mean", jsonNumber(m.mean)}, {"lower", jsonNumber(m.lower)}, {"upper", jsonNumber(m.upper)}, {"sd", jsonNumber(m.sd)}, {"n", m.n}};
 }
 
 std::string fmt(double v, int digits = 3) {
@@ -53,8 +52,8 @@ json bandJson(const BandCurve& b) {
   j["activity"] = b.activity;
   json rows = json::array();
   for (size_t k = 0; k < b.phase.size(); ++k)
-    rows.push_back({num(b.phase[k]), num(b.mean_gap[k]), num(b.sd_gap[k]), num(b.mean_measured[k]),
-                    num(b.sd_measured[k]), num(b.mean_predicted[k]), b.n_cycles[k]});
+    rows.push_back({jsonNumber(b.phase[k]), jsonNumber(b.mean_gap[k]), jsonNumber(b.sd_gap[k]), jsonNumber(b.mean_measured[k]),
+                    jsonNumber(b.sd_measured[k]), jsonNumber(b.mean_predicted[k]), b.n_cycles[k]});
   j["columns"] = {"phase", "mean_gap_N", "sd_gap_N", "mean_measured_N", "repeatability_sd_N", "mean_predicted_N",
                   "cycles"};
   j["rows"] = rows;
@@ -64,8 +63,8 @@ json bandJson(const BandCurve& b) {
 json correlationsJson(const std::vector<SignalCorrelation>& cs) {
   json a = json::array();
   for (const auto& c : cs)
-    a.push_back({{"signal", c.signal}, {"r", num(c.r)}, {"ci", {num(c.lower), num(c.upper)}},
-                 {"n", c.n}, {"n_eff", num(c.n_eff)}});
+    a.push_back({{"signal", c.signal}, {"r", jsonNumber(c.r)}, {"ci", {jsonNumber(c.lower), jsonNumber(c.upper)}},
+                 {"n", c.n}, {"n_eff", jsonNumber(c.n_eff)}});
   return a;
 }
 
@@ -75,12 +74,12 @@ json noiseFloorJson(const NoiseFloor& n) {
           {"matched_on", n.matched_on},
           {"cycles", n.units},
           {"matched_frames", n.pairs},
-          {"floor_N", num(n.floor)},
-          {"withheld_rmse_N", num(n.rmse)},
-          {"excess_share", num(n.excess)},
-          {"excess_share_lower", num(n.excess_lower)},
-          {"excess_share_upper", num(n.excess_upper)},
-          {"tolerance_rmse_over_floor", num(n.tolerance)},
+          {"floor_N", jsonNumber(n.floor)},
+          {"withheld_rmse_N", jsonNumber(n.rmse)},
+          {"excess_share", jsonNumber(n.excess)},
+          {"excess_share_lower", jsonNumber(n.excess_lower)},
+          {"excess_share_upper", jsonNumber(n.excess_upper)},
+          {"tolerance_rmse_over_floor", jsonNumber(n.tolerance)},
           {"above", n.above},
           {"consistent", n.consistent},
           {"cycles_needed", n.cycles_needed}};
@@ -88,11 +87,11 @@ json noiseFloorJson(const NoiseFloor& n) {
 
 json agnosticJson(const AgnosticCheck& a) {
   json imp = json::array(), dep = json::array();
-  for (const auto& i : a.importance) imp.push_back({{"signal", i.signal}, {"share", num(i.share)}});
+  for (const auto& i : a.importance) imp.push_back({{"signal", i.signal}, {"share", jsonNumber(i.share)}});
   for (const auto& p : a.dependence) {
     json x = json::array(), y = json::array();
-    for (double v : p.x) x.push_back(num(v));
-    for (double v : p.y) y.push_back(num(v));
+    for (double v : p.x) x.push_back(jsonNumber(v));
+    for (double v : p.y) y.push_back(jsonNumber(v));
     dep.push_back({{"signal", p.signal}, {"x", x}, {"fitted_residual_N", y}});
   }
   return {{"run", a.run},
@@ -101,11 +100,11 @@ json agnosticJson(const AgnosticCheck& a) {
           {"frames", a.frames},
           {"features", a.features},
           {"signals", a.signals},
-          {"relative_mse_reduction", num(a.reduction)},
-          {"relative_mse_reduction_one_sided_lower", num(a.reduction_lower)},
-          {"cross_fitted_score_t", num(a.score_t)},
-          {"cross_fitted_score_critical_t", num(a.score_critical)},
-          {"p_value", num(a.p_value)},
+          {"relative_mse_reduction", jsonNumber(a.reduction)},
+          {"relative_mse_reduction_one_sided_lower", jsonNumber(a.reduction_lower)},
+          {"cross_fitted_score_t", jsonNumber(a.score_t)},
+          {"cross_fitted_score_critical_t", jsonNumber(a.score_critical)},
+          {"p_value", jsonNumber(a.p_value)},
           {"significant", a.significant},
           {"importance", imp},
           {"partial_dependence", dep}};
@@ -113,8 +112,8 @@ json agnosticJson(const AgnosticCheck& a) {
 
 json heterogeneityJson(const CycleHeterogeneity& h) {
   return {{"run", h.run},          {"note", h.note},           {"cycles", h.units},
-          {"statistic", num(h.statistic)}, {"p_value", num(h.p_value)}, {"significant", h.significant},
-          {"gain_sd", num(h.gain_sd)},     {"offset_sd_N", num(h.offset_sd)}};
+          {"statistic", jsonNumber(h.statistic)}, {"p_value", jsonNumber(h.p_value)}, {"significant", h.significant},
+          {"gain_sd", jsonNumber(h.gain_sd)},     {"offset_sd_N", jsonNumber(h.offset_sd)}};
 }
 
 // Title prefix of the plots: what kind of data they show when it is not real data.
@@ -139,7 +138,7 @@ json toJson(const GapReport& r, const Anchors& a) {
   j["trials"] = r.trials;
   j["activities"] = r.activities;
   j["effects"] = r.effects;
-  j["body_mass_kg"] = num(r.body_mass);
+  j["body_mass_kg"] = jsonNumber(r.body_mass);
   j["cycles"] = r.cycles;
   j["cross_validation"] = r.cv_scheme;
   j["notes"] = r.notes;
@@ -162,36 +161,36 @@ json toJson(const GapReport& r, const Anchors& a) {
       const UndecidedCandidate& u = d.undecided;
       t["undecided"] = {{"effect", u.effect},
                         {"step", u.step},
-                        {"relative_mse_reduction", num(u.reduction)},
-                        {"relative_mse_reduction_one_sided_lower", num(u.lower)},
-                        {"prewhitened_relative_mse_reduction", num(u.whitened)},
-                        {"prewhitened_relative_mse_reduction_one_sided_lower", num(u.whitened_lower)},
+                        {"relative_mse_reduction", jsonNumber(u.reduction)},
+                        {"relative_mse_reduction_one_sided_lower", jsonNumber(u.lower)},
+                        {"prewhitened_relative_mse_reduction", jsonNumber(u.whitened)},
+                        {"prewhitened_relative_mse_reduction_one_sided_lower", jsonNumber(u.whitened_lower)},
                         {"cycles", u.cycles},
                         {"cycles_needed", u.cycles_needed}};
     }
     t["final_law"] = d.final_law;
     t["baseline"] = identify::toJson(d.baseline);
-    t["baseline_heldout_rmse_N"] = num(d.baseline_rmse_heldout);
-    t["baseline_heldout_rmse_BW"] = num(bwN > 0 ? d.baseline_rmse_heldout / bwN : NAN);
+    t["baseline_heldout_rmse_N"] = jsonNumber(d.baseline_rmse_heldout);
+    t["baseline_heldout_rmse_BW"] = jsonNumber(bwN > 0 ? d.baseline_rmse_heldout / bwN : NAN);
     t["final_fit"] = identify::toJson(d.final_fit);
     json where;
     json phases = json::array();
     for (const auto& p : d.phases)
       phases.push_back({{"activity", p.activity}, {"phase", p.phase}, {"frames", p.n_frames}, {"cycles", p.n_cycles},
-                        {"rmse_N", num(p.rmse)}, {"rmse_BW", num(p.rmse_bw)}, {"bias_N", num(p.bias)},
-                        {"systematic_gap_N", num(p.systematic)}, {"repeatability_band_N", num(p.band)},
+                        {"rmse_N", jsonNumber(p.rmse)}, {"rmse_BW", jsonNumber(p.rmse_bw)}, {"bias_N", jsonNumber(p.bias)},
+                        {"systematic_gap_N", jsonNumber(p.systematic)}, {"repeatability_band_N", jsonNumber(p.band)},
                         {"verdict", p.verdict}});
     where["phases"] = phases;
     where["correlations"] = correlationsJson(d.correlations);
-    where["best_time_shift_s"] = num(d.best_lag);
-    where["best_time_shift_r"] = num(d.best_lag_r);
+    where["best_time_shift_s"] = jsonNumber(d.best_lag);
+    where["best_time_shift_r"] = jsonNumber(d.best_lag_r);
     where["reference_predictors"] = {
-        {"baseline_heldout_rmse_N", num(d.reference.baseline_rmse)},
-        {"training_mean_curve_heldout_rmse_N", num(d.reference.mean_curve_rmse)},
+        {"baseline_heldout_rmse_N", jsonNumber(d.reference.baseline_rmse)},
+        {"training_mean_curve_heldout_rmse_N", jsonNumber(d.reference.mean_curve_rmse)},
         {"training_mean_curve_frames", d.reference.mean_curve_frames},
-        {"baseline_heldout_rmse_on_those_frames_N", num(d.reference.baseline_rmse_on_mean_curve_frames)},
-        {"isotonic_area_to_force_heldout_rmse_N", num(d.reference.isotonic_rmse)},
-        {"isotonic_area_to_force_in_sample_rmse_N", num(d.reference.isotonic_in_sample_rmse)}};
+        {"baseline_heldout_rmse_on_those_frames_N", jsonNumber(d.reference.baseline_rmse_on_mean_curve_frames)},
+        {"isotonic_area_to_force_heldout_rmse_N", jsonNumber(d.reference.isotonic_rmse)},
+        {"isotonic_area_to_force_in_sample_rmse_N", jsonNumber(d.reference.isotonic_in_sample_rmse)}};
     json bands = json::array();
     for (const auto& b : d.bands) bands.push_back(bandJson(b));
     where["bands"] = bands;
@@ -200,12 +199,12 @@ json toJson(const GapReport& r, const Anchors& a) {
     for (size_t s = 0; s < d.screening.size(); ++s) {
       json step = json::array();
       for (const auto& x : d.screening[s]) {
-        json one = {{"effect", x.effect}, {"testable", x.testable}, {"lm_statistic", num(x.statistic)},
-                    {"dof", x.dof}, {"p_value", num(x.p_value)}, {"z", num(x.z)},
-                    {"predicted_sse_reduction", num(x.predicted_reduction)}};
+        json one = {{"effect", x.effect}, {"testable", x.testable}, {"lm_statistic", jsonNumber(x.statistic)},
+                    {"dof", x.dof}, {"p_value", jsonNumber(x.p_value)}, {"z", jsonNumber(x.z)},
+                    {"predicted_sse_reduction", jsonNumber(x.predicted_reduction)}};
         if (!x.reason.empty()) one["reason"] = x.reason;
         json os = json::object();
-        for (const auto& [n, v] : x.one_step) os[n] = num(v);
+        for (const auto& [n, v] : x.one_step) os[n] = jsonNumber(v);
         one["one_step_estimate"] = os;
         step.push_back(one);
       }
@@ -216,27 +215,27 @@ json toJson(const GapReport& r, const Anchors& a) {
     for (const auto& c : d.candidates) {
       json ps = json::array();
       for (const auto& p : c.parameters)
-        ps.push_back({{"name", p.name}, {"unit", p.unit}, {"value", num(p.value)}, {"ci_asymptotic", interval(p.ci)},
-                      {"ci_jackknife", interval(p.ci_jackknife)}, {"fold_mean", num(p.fold_mean)},
-                      {"fold_sd", num(p.fold_sd)}, {"sign_consistency", num(p.sign_consistency)},
+        ps.push_back({{"name", p.name}, {"unit", p.unit}, {"value", jsonNumber(p.value)}, {"ci_asymptotic", interval(p.ci)},
+                      {"ci_jackknife", interval(p.ci_jackknife)}, {"fold_mean", jsonNumber(p.fold_mean)},
+                      {"fold_sd", jsonNumber(p.fold_sd)}, {"sign_consistency", jsonNumber(p.sign_consistency)},
                       {"at_bound", p.at_bound}, {"identified", p.identified}});
       cands.push_back({{"effect", c.effect},
                        {"law", c.law},
                        {"step", c.step},
                        {"converged", c.converged},
-                       {"rmse_in_sample_N", num(c.rmse_in_sample)},
-                       {"rmse_heldout_N", num(c.rmse_heldout)},
+                       {"rmse_in_sample_N", jsonNumber(c.rmse_in_sample)},
+                       {"rmse_heldout_N", jsonNumber(c.rmse_heldout)},
                        {"heldout_log_sse_ratio", meanInterval(c.log_ratio)},
-                       {"relative_mse_reduction", num(c.relative_improvement)},
+                       {"relative_mse_reduction", jsonNumber(c.relative_improvement)},
                        {"relative_mse_reduction_interval", meanInterval(c.reduction)},
-                       {"relative_mse_reduction_one_sided_lower", num(c.one_sided_lower)},
-                       {"prewhitened_relative_mse_reduction", num(c.whitened_improvement)},
-                       {"prewhitened_relative_mse_reduction_one_sided_lower", num(c.whitened_one_sided_lower)},
-                       {"cross_fitted_score_t", num(c.score_t)},
-                       {"cross_fitted_score_critical_t", num(c.score_critical)},
+                       {"relative_mse_reduction_one_sided_lower", jsonNumber(c.one_sided_lower)},
+                       {"prewhitened_relative_mse_reduction", jsonNumber(c.whitened_improvement)},
+                       {"prewhitened_relative_mse_reduction_one_sided_lower", jsonNumber(c.whitened_one_sided_lower)},
+                       {"cross_fitted_score_t", jsonNumber(c.score_t)},
+                       {"cross_fitted_score_critical_t", jsonNumber(c.score_critical)},
                        {"significant", c.isSignificant()},
-                       {"d_aic", num(c.d_aic)},
-                       {"d_bic", num(c.d_bic)},
+                       {"d_aic", jsonNumber(c.d_aic)},
+                       {"d_bic", jsonNumber(c.d_bic)},
                        {"parameters", ps},
                        {"accepted", c.accepted},
                        {"decision", c.decision},
@@ -246,19 +245,19 @@ json toJson(const GapReport& r, const Anchors& a) {
     t["prewhitening_ar"] = d.prewhitening;
     json conf = json::array();
     for (const auto& c : d.confusable)
-      conf.push_back({{"a", c.a}, {"b", c.b}, {"signature_r", num(c.signature_r)},
+      conf.push_back({{"a", c.a}, {"b", c.b}, {"signature_r", jsonNumber(c.signature_r)},
                       {"heldout_log_sse_ratio_a_over_b", meanInterval(c.difference)},
                       {"separated_by", c.separated_by}});
     t["confusable_pairs"] = conf;
     t["untestable"] = d.untestable;
     json rem = json::array();
     for (const auto& b : d.structure.remaining) rem.push_back(bandJson(b));
-    t["remaining_structure"] = {{"statistic", num(d.structure.statistic)}, {"p_value", num(d.structure.p_value)},
+    t["remaining_structure"] = {{"statistic", jsonNumber(d.structure.statistic)}, {"p_value", jsonNumber(d.structure.p_value)},
                                 {"cycles", d.structure.cycles}, {"significant", d.structure.significant},
                                 {"evidence", d.structure.evidence},
-                                {"systematic_gap_N", num(d.structure.systematic_gap)},
-                                {"mean_gap_uncertainty_N", num(d.structure.mean_uncertainty)},
-                                {"repeatability_band_N", num(d.structure.repeatability_band)},
+                                {"systematic_gap_N", jsonNumber(d.structure.systematic_gap)},
+                                {"mean_gap_uncertainty_N", jsonNumber(d.structure.mean_uncertainty)},
+                                {"repeatability_band_N", jsonNumber(d.structure.repeatability_band)},
                                 {"exceeds_band", d.structure.exceeds_band},
                                 {"note", d.structure.note}, {"bands", rem},
                                 {"correlations", correlationsJson(d.structure.correlations)},
@@ -268,9 +267,9 @@ json toJson(const GapReport& r, const Anchors& a) {
     json sh = json::array();
     for (const auto& s : d.shrinkage)
       sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
-                    {"cycles", s.n_cycles}, {"rmse_baseline_N", num(s.rmse_base)}, {"rmse_final_N", num(s.rmse_final)},
-                    {"rmse_baseline_BW", num(s.rmse_base_bw)}, {"rmse_final_BW", num(s.rmse_final_bw)},
-                    {"reduction", num(s.reduction)}, {"reduction_ci", interval(s.ci)}});
+                    {"cycles", s.n_cycles}, {"rmse_baseline_N", jsonNumber(s.rmse_base)}, {"rmse_final_N", jsonNumber(s.rmse_final)},
+                    {"rmse_baseline_BW", jsonNumber(s.rmse_base_bw)}, {"rmse_final_BW", jsonNumber(s.rmse_final_bw)},
+                    {"reduction", jsonNumber(s.reduction)}, {"reduction_ci", interval(s.ci)}});
     t["shrinkage"] = sh;
     targets.push_back(t);
   }

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.hpp"
+#include "core/json.hpp"
 
 namespace kneesim::identify {
 
@@ -12,12 +13,9 @@ using nlohmann::json;
 
 namespace {
 
-// JSON has no NaN or infinity: undefined values (no body mass, a singular matrix) become null.
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
 json interval(const Interval& i) {
   if (!i.isValid()) return nullptr;
-  return json::array({num(i.lower), num(i.upper)});
+  return json::array({jsonNumber(i.lower), jsonNumber(i.upper)});
 }
 
 json phases(const std::vector<std::pair<std::string, FitMetrics>>& v) {
@@ -34,16 +32,16 @@ json phases(const std::vector<std::pair<std::string, FitMetrics>>& v) {
 
 json toJson(const FitMetrics& m) {
   return {{"frames", m.n_frames},
-          {"rmse_N", num(m.rmse)},
-          {"rmse_BW", num(m.rmse_bw)},
-          {"r2", num(m.r2)},
-          {"max_abs_error_N", num(m.max_abs_error)},
-          {"time_of_max_error_s", num(m.time_of_max_error)},
+          {"rmse_N", jsonNumber(m.rmse)},
+          {"rmse_BW", jsonNumber(m.rmse_bw)},
+          {"r2", jsonNumber(m.r2)},
+          {"max_abs_error_N", jsonNumber(m.max_abs_error)},
+          {"time_of_max_error_s", jsonNumber(m.time_of_max_error)},
           {"trial_of_max_error", m.trial_of_max_error},
-          {"bias_N", num(m.bias)},
-          {"mean_measured_N", num(m.mean_measured)},
-          {"peak_measured_N", num(m.peak_measured)},
-          {"nrmse_peak", num(m.nrmse_peak)}};
+          {"bias_N", jsonNumber(m.bias)},
+          {"mean_measured_N", jsonNumber(m.mean_measured)},
+          {"peak_measured_N", jsonNumber(m.peak_measured)},
+          {"nrmse_peak", jsonNumber(m.nrmse_peak)}};
 }
 
 json toJson(const IdentifiabilityReport& r) {
@@ -64,7 +62,7 @@ json toJson(const IdentifiabilityReport& r) {
           {"values", r.values},
           {"sensitivity_rms_N", r.column_rms},
           {"singular_values_N", r.singular_values},
-          {"condition_number", num(r.condition_number)},
+          {"condition_number", jsonNumber(r.condition_number)},
           {"tolerance", r.tolerance},
           {"weak_tolerance", r.weak_tolerance},
           {"identifiable", r.isIdentifiable()},
@@ -92,7 +90,7 @@ json toJson(const FitReport& r) {
   for (const auto& d : r.derived)
     derived.push_back({{"name", d.name},
                        {"unit", d.unit},
-                       {"value", num(d.value)},
+                       {"value", jsonNumber(d.value)},
                        {"identified", d.identified},
                        {"ci_asymptotic", interval(d.ci_asymptotic)},
                        {"ci_profile", interval(d.ci_profile)},
@@ -130,7 +128,7 @@ json toJson(const FitReport& r) {
           {"metrics", toJson(r.overall)},
           {"per_trial", trials},
           {"per_phase", phases(r.per_phase)},
-          {"residual_lag1_correlation", num(r.residual_lag1_correlation)},
+          {"residual_lag1_correlation", jsonNumber(r.residual_lag1_correlation)},
           {"effective_frames", r.effective_frames},
           {"confidence_level", r.confidence_level},
           {"bootstrap",

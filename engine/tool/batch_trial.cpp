@@ -10,6 +10,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/json.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "ik/tool.hpp"
@@ -114,26 +115,24 @@ void runWorkflowStep(const std::string& path, const RunOptions& options, BatchTr
   r.outputs.insert(r.outputs.end(), w.outputs.begin(), w.outputs.end());
 }
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
 json figuresJson(const BatchTrialReport& r) {
   const TrialFigures& f = r.figures;
   json law = json::object();
-  for (const auto& [k, v] : f.law) law[k] = number(v);
+  for (const auto& [k, v] : f.law) law[k] = jsonNumber(v);
   return {{"name", r.name},
           {"subject", r.subject},
           {"trial", r.trial},
           {"activity", r.activity},
           {"tools", r.tools},
-          {"ik", {{"frames", f.ik_frames}, {"marker_rms_mean_mm", number(f.marker_rms_mm)},
-                  {"marker_error_max_mm", number(f.marker_max_mm)}}},
-          {"contact_area", {{"peak_mm2", number(f.contact_peak_mm2)}, {"peak_time_s", number(f.contact_peak_time)}}},
+          {"ik", {{"frames", f.ik_frames}, {"marker_rms_mean_mm", jsonNumber(f.marker_rms_mm)},
+                  {"marker_error_max_mm", jsonNumber(f.marker_max_mm)}}},
+          {"contact_area", {{"peak_mm2", jsonNumber(f.contact_peak_mm2)}, {"peak_time_s", jsonNumber(f.contact_peak_time)}}},
           {"force", {{"window", f.force_window},
-                     {"rmse_N", number(f.force_rmse_n)},
-                     {"rmse_bw", number(f.force_rmse_bw)},
-                     {"r2", number(f.force_r2)},
-                     {"peak_measured_N", number(f.force_peak_measured_n)},
-                     {"whole_trial_rmse_N", number(f.force_trial_rmse_n)},
+                     {"rmse_N", jsonNumber(f.force_rmse_n)},
+                     {"rmse_bw", jsonNumber(f.force_rmse_bw)},
+                     {"r2", jsonNumber(f.force_r2)},
+                     {"peak_measured_N", jsonNumber(f.force_peak_measured_n)},
+                     {"whole_trial_rmse_N", jsonNumber(f.force_trial_rmse_n)},
                      {"law", law}}}};
 }
 

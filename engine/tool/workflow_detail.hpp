@@ -22,6 +22,7 @@
 
 #include "contact/contact_area.hpp"
 #include "core/atomic_file.hpp"
+#include "core/json.hpp"
 #include "core/strings.hpp"
 #include "io/storage.hpp"
 #include "plugin/registry.hpp"
@@ -35,8 +36,6 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kPaperPeakLow = 1016e-6, kPaperPeakHigh = 1117e-6;
 
 inline std::string fmt(double v, int digits = 6) { return formatSignificant(v, digits); }
-
-inline nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 using Clock = std::chrono::steady_clock;
 inline double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }

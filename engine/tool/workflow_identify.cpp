@@ -189,11 +189,11 @@ identify::TimeWindow resolveWindow(const WorkflowTrialSpec& spec, const io::Gait
 nlohmann::json phaseJson(const PhaseError& e) {
   nlohmann::json j = identify::toJson(e.metrics);
   j["phase"] = e.name;
-  j["begin_s"] = num(e.begin);
-  j["end_s"] = num(e.end);
-  j["begin_percent_of_cycle"] = num(e.begin_percent);
-  j["end_percent_of_cycle"] = num(e.end_percent);
-  j["agreement_fraction"] = num(e.agreement);
+  j["begin_s"] = jsonNumber(e.begin);
+  j["end_s"] = jsonNumber(e.end);
+  j["begin_percent_of_cycle"] = jsonNumber(e.begin_percent);
+  j["end_percent_of_cycle"] = jsonNumber(e.end_percent);
+  j["agreement_fraction"] = jsonNumber(e.agreement);
   return j;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "core/json.hpp"
 #include "core/strings.hpp"
 #include "dynamics/tool.hpp"
 #include "gap/signals.hpp"
@@ -16,8 +17,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 // @p x shifted later by @p k frames: out[i] = x[i - k] (NaN where that is outside).
 std::vector<double> shifted(const std::vector<double>& x, int k) {
@@ -138,10 +137,10 @@ nlohmann::json toJson(const TrialKneeLoads& loads, bool timings) {
   for (const KneeLoadAgreement& g : loads.agreement)
     a.push_back({{"load", g.load},
                  {"measured", g.measured},
-                 {"r_trial", num(g.r_trial)},
-                 {"r_window", num(g.r_window)},
-                 {"best_lag_s", num(g.lag)},
-                 {"r_at_best_lag", num(g.r_at_lag)}});
+                 {"r_trial", jsonNumber(g.r_trial)},
+                 {"r_window", jsonNumber(g.r_window)},
+                 {"best_lag_s", jsonNumber(g.lag)},
+                 {"r_at_best_lag", jsonNumber(g.r_at_lag)}});
   j["agreement"] = a;
   return j;
 }

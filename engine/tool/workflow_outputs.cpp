@@ -162,11 +162,11 @@ json areaPeaksJson(const WorkflowSetup& setup, const WorkflowTrialResult& r) {
       if (r.time[i] >= wb - 1e-9 && r.time[i] <= we + 1e-9) lo = std::min(lo, s[i]);
     areas.push_back({{"channel", e < 0 ? std::string("S") : contact::areaChannelName(r.contact.extra_thresholds[size_t(e)])},
                      {"threshold_m", e < 0 ? setup.contact.options.threshold : r.contact.extra_thresholds[size_t(e)]},
-                     {"peak_m2", num(pk)},
-                     {"peak_time_s", num(tpk)},
-                     {"window_peak_m2", num(pw)},
-                     {"window_peak_time_s", num(tpw)},
-                     {"window_lowest_m2", std::isfinite(lo) ? num(lo) : json(nullptr)}});
+                     {"peak_m2", jsonNumber(pk)},
+                     {"peak_time_s", jsonNumber(tpk)},
+                     {"window_peak_m2", jsonNumber(pw)},
+                     {"window_peak_time_s", jsonNumber(tpw)},
+                     {"window_lowest_m2", jsonNumber(lo)}});
   }
   return areas;
 }
@@ -180,16 +180,16 @@ json trialJson(const WorkflowSetup& setup, bool flex_rot, const TrialState& st) 
   j["kinematics"] = r.kinematics_description;
   j["frames"] = r.time.size();
   j["time_s"] = {r.time.front(), r.time.back()};
-  j["ik_mean_marker_rms_m"] = num(r.ik_mean_rms);
+  j["ik_mean_marker_rms_m"] = jsonNumber(r.ik_mean_rms);
   j["notes"] = r.notes;
   json ev;
-  ev["heel_strike_s"] = num(r.cycle.strike);
-  ev["toe_off_s"] = num(r.cycle.toe_off);
-  ev["next_heel_strike_s"] = num(r.cycle.next_strike);
-  ev["toe_off_percent_of_cycle"] = r.cycle.isComplete() ? num(r.cycle.getToeOffPercent()) : json(nullptr);
+  ev["heel_strike_s"] = jsonNumber(r.cycle.strike);
+  ev["toe_off_s"] = jsonNumber(r.cycle.toe_off);
+  ev["next_heel_strike_s"] = jsonNumber(r.cycle.next_strike);
+  ev["toe_off_percent_of_cycle"] = r.cycle.isComplete() ? jsonNumber(r.cycle.getToeOffPercent()) : json(nullptr);
   ev["source"] = st.spec.gait_events.empty() ? "force plates (" + st.spec.heel_marker + " over the plate)" : "setup";
   json plates = json::array();
-  for (const auto& c : r.contacts) plates.push_back({{"plate", c.plate}, {"strike_s", c.strike}, {"off_s", num(c.off)}});
+  for (const auto& c : r.contacts) plates.push_back({{"plate", c.plate}, {"strike_s", c.strike}, {"off_s", jsonNumber(c.off)}});
   ev["plate_contacts"] = plates;
   j["gait_events"] = ev;
   json win;
@@ -206,13 +206,13 @@ json trialJson(const WorkflowSetup& setup, bool flex_rot, const TrialState& st) 
     double mean = 0, ss = 0;
     for (double v : meas) mean += v / double(meas.size());
     for (double v : meas) ss += (v - mean) * (v - mean);
-    j["window_metrics"]["constant_force_rmse_N"] = num(std::sqrt(ss / double(meas.size())));
+    j["window_metrics"]["constant_force_rmse_N"] = jsonNumber(std::sqrt(ss / double(meas.size())));
   }
   j["trial_metrics"] = metricsJson(r.trial_prediction.metrics);
   j["agreement"] = {{"tolerance_N", setup.agreement_fraction * r.window_prediction.metrics.peak_measured},
                     {"tolerance_fraction_of_window_peak", setup.agreement_fraction},
-                    {"window_fraction", num(r.window_agreement)},
-                    {"cycle_fraction", num(r.cycle_agreement)}};
+                    {"window_fraction", jsonNumber(r.window_agreement)},
+                    {"cycle_fraction", jsonNumber(r.cycle_agreement)}};
   json ph = json::array();
   for (const PhaseError& e : r.phases) ph.push_back(phaseJson(e));
   j["phases"] = ph;
@@ -224,7 +224,7 @@ json trialJson(const WorkflowSetup& setup, bool flex_rot, const TrialState& st) 
     j["goniometer_calibration"] = {{"signal_units", r.goniometer_in_volts ? "volts" : "degrees"},
                                    {"volts_to_goniometer_degrees", {{"gain_deg_per_volt", g.volts_gain}, {"offset_deg", g.volts_offset_deg}}},
                                    {"flexion_deg", {{"offset_deg", g.offset_deg}, {"gain_per_goniometer_deg", g.gain}}},
-                                   {"source", g.source}, {"r", num(g.r)}, {"rms_deg", num(g.rms_deg)}, {"frames", g.frames}};
+                                   {"source", g.source}, {"r", jsonNumber(g.r)}, {"rms_deg", jsonNumber(g.rms_deg)}, {"frames", g.frames}};
   }
   if (!r.knee_loads.at_frames.empty()) j["knee_loads"] = toJson(r.knee_loads, setup.timings);
   if (setup.timings) j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
@@ -253,7 +253,7 @@ json makeSummary(const WorkflowSetup& setup, const WorkflowInputs& in, const ide
   sj["workflow"] = setup.name;
   sj["setup_file"] = setup.setup_file;
   sj["model_file"] = setup.model_file;
-  sj["body_mass_kg"] = num(setup.body_mass);
+  sj["body_mass_kg"] = jsonNumber(setup.body_mass);
   sj["kinematics"] = setup.kinematics == "model"
                          ? "model: the components placed by the model at every frame"
                          : "hinge: flexion only about the fitted cylinder, seated (Dao & Pouletaut 2015)";
