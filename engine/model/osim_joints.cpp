@@ -140,12 +140,24 @@ std::vector<ParsedCoordinate> OsimReader::readJointCoordinates(const Node& j) {
   return out;
 }
 
-int OsimReader::addCoordinate(const ParsedCoordinate& pc, int joint) {
-  if (coord_index_.count(pc.coord.name)) pc.node.fail("duplicate coordinate name '" + pc.coord.name + "'");
+int OsimReader::addCoordinate(const ParsedCoordinate& pc, int joint, const std::string& joint_name) {
+  std::string name = pc.coord.name;
+  if (auto it = coord_index_.find(name); it != coord_index_.end()) {
+    // OpenSim 4 names a coordinate by its path (/jointset/J/q): only siblings must differ, and a
+    // lookup by the bare name finds the first. The later one is called "J/q" here.
+    if (m_->coordinates[it->second].joint == joint)
+      pc.node.fail("duplicate coordinate name '" + name + "' in joint '" + joint_name + "'");
+    name = joint_name + "/" + name;
+    if (coord_index_.count(name)) pc.node.fail("duplicate coordinate name '" + name + "'");
+    m_->warnings.push_back(formatLocated(pc.node.where(), "coordinate '" + pc.coord.name + "' of joint '" +
+                                                              joint_name + "' shares its name with another " +
+                                                              "joint's; it is called '" + name + "'"));
+  }
   const int ci = int(m_->coordinates.size());
   m_->coordinates.push_back(pc.coord);
+  m_->coordinates.back().name = name;
   m_->coordinates.back().joint = joint;
-  coord_index_[pc.coord.name] = ci;
+  coord_index_[name] = ci;
   return ci;
 }
 
@@ -197,7 +209,7 @@ int OsimReader::readJoint(const Node& j, int child, bool v4) {
       j.fail("expected " + std::to_string(nt.motions.size()) + " coordinates for a " + type + ", got " +
              std::to_string(coords.size()));
     for (size_t k = 0; k < coords.size(); ++k) {
-      const int ci = addCoordinate(coords[k], ji);
+      const int ci = addCoordinate(coords[k], ji, jt.name);
       m_->coordinates[ci].motion_type = nt.motions[k];
       jt.coordinates.push_back(ci);
     }
@@ -213,7 +225,7 @@ int OsimReader::readJoint(const Node& j, int child, bool v4) {
     const MotionType motions[3] = {R, T, T};
     const int axis_of[3] = {0, 3, 4};
     for (int k = 0; k < 3; ++k) {
-      const int ci = addCoordinate(coords[k], ji);
+      const int ci = addCoordinate(coords[k], ji, jt.name);
       m_->coordinates[ci].motion_type = motions[k];
       jt.coordinates.push_back(ci);
       jt.spatial[axis_of[k]].coordinates = {ci};
@@ -237,7 +249,7 @@ int OsimReader::readJoint(const Node& j, int child, bool v4) {
     jt.type = scap ? JointType::Scapulothoracic : JointType::Ellipsoid;
     readEllipsoidProperties(j, jt);
     for (size_t k = 0; k < coords.size(); ++k) {
-      const int ci = addCoordinate(coords[k], ji);
+      const int ci = addCoordinate(coords[k], ji, jt.name);
       m_->coordinates[ci].motion_type = R;
       jt.coordinates.push_back(ci);
     }
@@ -352,7 +364,7 @@ void OsimReader::readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<P
   for (const ParsedCoordinate& pc : coords) listed.push_back(pc.coord.name);
   std::vector<int> global(coords.size());
   for (size_t k = 0; k < coords.size(); ++k) {
-    global[k] = addCoordinate(coords[k], ji);
+    global[k] = addCoordinate(coords[k], ji, jt.name);
     jt.coordinates.push_back(global[k]);
   }
   for (int a = 0; a < 6; ++a) {

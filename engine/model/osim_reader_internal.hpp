@@ -163,7 +163,9 @@ class OsimReader {
   void readTransformAxisSet(const Node& set, std::array<AxisInfo, 6>& axes);
   void readEllipsoidProperties(const Node& j, Joint& jt);
   std::vector<ParsedCoordinate> readJointCoordinates(const Node& j);
-  int addCoordinate(const ParsedCoordinate& pc, int joint);
+  /// Adds a coordinate of joint @p joint; one whose name another joint's coordinate already has
+  /// is called "<joint_name>/<name>" (OpenSim tells them apart by path), with a warning.
+  int addCoordinate(const ParsedCoordinate& pc, int joint, const std::string& joint_name);
   /// Reads one joint element whose child body is @p child; returns its index in Model::joints.
   int readJoint(const Node& j, int child, bool v4);
   void readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<ParsedCoordinate>& coords);

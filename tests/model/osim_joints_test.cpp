@@ -47,6 +47,33 @@ TEST(OsimJoints, UnnamedJointsAreNamed) {
   EXPECT_EQ(m->joints[1].name, "b_weldjoint");
 }
 
+// OpenSim 4 tells coordinates apart by path (/jointset/J/q): two joints may each have a "q"
+// (StationDefinedFrames_Advanced's FreeJoints both have rx..tz). The first keeps the name, the
+// later one is called "J/q" with a warning; two "q" in one joint are an error, as in OpenSim.
+TEST(OsimJoints, CoordinateNamesSharedByTwoJoints) {
+  const std::string pin_a = "<PinJoint name=\"ja\"><parent_body>ground</parent_body><CoordinateSet><objects>"
+                            "<Coordinate name=\"q\"><default_value>0.1</default_value></Coordinate>"
+                            "</objects></CoordinateSet></PinJoint>";
+  const std::string pin_b = "<PinJoint name=\"jb\"><parent_body>a</parent_body><CoordinateSet><objects>"
+                            "<Coordinate name=\"q\"><default_value>0.2</default_value></Coordinate>"
+                            "</objects></CoordinateSet></PinJoint>";
+  ModelPtr m = parseOsim(model3(pin_a, pin_b), "shared.osim");
+  ASSERT_EQ(m->coordinates.size(), 2u);
+  EXPECT_EQ(m->coordinates[0].name, "q");
+  EXPECT_EQ(m->coordinates[1].name, "jb/q");
+  EXPECT_EQ(m->coordinates[1].default_value, 0.2);
+  EXPECT_EQ(m->coordinates[m->findCoordinate("q")].default_value, 0.1);
+  ASSERT_EQ(m->warnings.size(), 1u);
+  EXPECT_NE(m->warnings[0].find("coordinate 'q' of joint 'jb' shares its name with another joint's; it is called 'jb/q'"),
+            std::string::npos);
+  const std::string ball = "<BallJoint name=\"jb\"><parent_body>a</parent_body><CoordinateSet><objects>"
+                           "<Coordinate name=\"r\"/><Coordinate name=\"s\"/><Coordinate name=\"r\"/>"
+                           "</objects></CoordinateSet></BallJoint>";
+  EXPECT_NE(test::inputErrorOf([&] { parseOsim(model3(pin_a, ball), "dup.osim"); })
+                .find("duplicate coordinate name 'r' in joint 'jb'"),
+            std::string::npos);
+}
+
 // Format 10500's CustomJoint: a TransformAxisSet whose axes say is_rotation and name one
 // coordinate; rotations go to rotation1.., translations to translation1.., in order.
 TEST(OsimJoints, TransformAxisSetOfFormat10500) {
