@@ -2,6 +2,7 @@
 // model file or actuator set file into the model description.
 #include "model/osim_forces.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <set>
@@ -49,6 +50,16 @@ double requireFinite(const Node& el, const char* tag, double fallback, bool non_
   if (!std::isfinite(v) || (non_negative && v < 0))
     n.fail(std::string("expected a finite") + (non_negative ? " non-negative" : "") + " number, got " + n.text());
   return v;
+}
+
+/// A control bound: OpenSim writes an unbounded one as "Inf" or "-Inf" (an Actuator's default),
+/// kept here as +-1e30, kneesim's "no bound"; NaN is an error.
+double readControlBound(const Node& el, const char* tag, double fallback) {
+  Node n = el.child(tag);
+  if (!n || n.text().empty()) return fallback;
+  const double v = n.toDouble();
+  if (std::isnan(v)) n.fail("expected a number or +-Inf, got " + n.text());
+  return std::clamp(v, -1e30, 1e30);
 }
 
 class ForceReader {
@@ -250,8 +261,8 @@ class ForceReader {
     mu.tendon_slack_length = requireFinite(f, "tendon_slack_length", 0.2, true);
     mu.pennation_angle_at_optimal = requireFinite(f, "pennation_angle_at_optimal", 0.0, false);
     mu.max_contraction_velocity = requireFinite(f, "max_contraction_velocity", 10.0, true);
-    mu.min_control = requireFinite(f, "min_control", 0.0, false);
-    mu.max_control = requireFinite(f, "max_control", 1.0, false);
+    mu.min_control = readControlBound(f, "min_control", 0.0);
+    mu.max_control = readControlBound(f, "max_control", 1.0);
     if (!(mu.optimal_fiber_length > 0)) f.child("optimal_fiber_length").fail("expected a positive length, got 0");
     if (std::abs(mu.pennation_angle_at_optimal) >= M_PI / 2)
       f.child("pennation_angle_at_optimal").fail("expected an angle below pi/2, got " +
@@ -269,8 +280,8 @@ class ForceReader {
     Node c = f.requireChild("coordinate");
     a.coordinate = requireCoordinate(c, c.text());
     a.optimal_force = requireFinite(f, "optimal_force", 1.0, false);
-    a.min_control = requireFinite(f, "min_control", -1e30, false);
-    a.max_control = requireFinite(f, "max_control", 1e30, false);
+    a.min_control = readControlBound(f, "min_control", -1e30);
+    a.max_control = readControlBound(f, "max_control", 1e30);
     if (a.optimal_force == 0) f.child("optimal_force").fail("expected a non-zero optimal force, got 0");
     if (a.min_control > a.max_control)
       f.fail("expected min_control <= max_control, got " + std::to_string(a.min_control) + " > " +

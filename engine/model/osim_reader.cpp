@@ -37,6 +37,13 @@ std::shared_ptr<Model> OsimReader::read() {
   } else {
     root.fail("expected an OpenSim model (<OpenSimDocument> or <Model>), got <" + root.name() + ">");
   }
+  // OpenSim 1.x kept the bodies, joints and coordinates inside a <DynamicsEngine> (SimbodyBody,
+  // SimbodyJoint with a DofSet): a layout kneesim does not read, said as such rather than as a
+  // missing BodySet.
+  if (!model_el.child("BodySet") && !model_el.child("Ground"))
+    if (Node engine = model_el.child("DynamicsEngine"))
+      engine.fail("expected the BodySet of a model of format 10901 or later, got OpenSim 1.x's <DynamicsEngine> "
+                  "layout (format " + std::to_string(m_->format_version) + "), which kneesim does not read");
   m_->name = model_el.nameAttr();
   m_->source_file = label_;
   m_->gravity = model_el.childVec3("gravity", m_->gravity);

@@ -195,6 +195,22 @@ TEST(OsimForces, BadForceElementsAreOneLineErrors) {
   EXPECT_EQ(m->ignored[0].type, "RigidTendonMuscle");
 }
 
+// OpenSim writes an actuator's unbounded controls as -Inf and Inf (the Actuator default; the
+// Matlab double_pendulum_markers model has them): read as kneesim's "no bound", +-1e30. NaN is bad.
+TEST(OsimForces, InfiniteControlBoundsAreUnbounded) {
+  std::string text = modelText(kThelen);
+  const std::string bounds = "<min_control>-2</min_control><max_control>3</max_control>";
+  ASSERT_NE(text.find(bounds), std::string::npos);
+  text.replace(text.find(bounds), bounds.size(), "<min_control>-Inf</min_control><max_control>Inf</max_control>");
+  const ModelPtr m = parseOsim(text, "/tmp/m.osim");
+  ASSERT_EQ(m->actuators.size(), 1u);
+  EXPECT_EQ(m->actuators[0].min_control, -1e30);
+  EXPECT_EQ(m->actuators[0].max_control, 1e30);
+  text.replace(text.find("<max_control>Inf"), 16, "<max_control>NaN");
+  EXPECT_NE(inputErrorOf([&] { parseOsim(text, "/tmp/m.osim"); }).find("max_control: expected a number or +-Inf, got NaN"),
+            std::string::npos);
+}
+
 TEST(OsimForces, ActuatorSetFileAppendsOrReplaces) {
   const ModelPtr m = parseOsim(modelText(kThelen), "/tmp/m.osim");
   const std::string dir = test::scratchDir("osim_forces_actuators");

@@ -363,6 +363,18 @@ TEST(OsimReader, MalformedXml) {
   EXPECT_TRUE(std::regex_search(e, std::regex("^bad\\.osim:[0-9]+: malformed XML"))) << e;
 }
 
+// OpenSim 1.x's layout (opensim-core's DynamicsEngines/TestSimbodyEngine/pendulum2.osim): a bare
+// <Model> whose bodies and joints sit in <DynamicsEngine><SimbodyEngine>. One line naming it.
+TEST(OsimReader, DynamicsEngineLayoutOfOpenSim1IsNamed) {
+  const std::string e = errorOf(
+      "<?xml version=\"1.0\"?>\n<Model name=\"\">\n<DynamicsEngine>\n<SimbodyEngine>\n<BodySet><objects>"
+      "<SimbodyBody name=\"ground\"/></objects></BodySet>\n</SimbodyEngine>\n</DynamicsEngine>\n</Model>\n");
+  EXPECT_NE(e.find("bad.osim:3: Model/DynamicsEngine: expected the BodySet of a model of format 10901 or later, got "
+                   "OpenSim 1.x's <DynamicsEngine> layout (format 10500), which kneesim does not read"),
+            std::string::npos)
+      << e;
+}
+
 TEST(OsimReader, UnknownJointType) {
   std::string j = kPin;
   j.replace(j.find("PinJoint"), 8, "FooJoint");
