@@ -32,6 +32,14 @@ std::string workflowAreaFile(const std::string& dir, const std::string& name) {
   return (fs::path(dir) / name / (name + "_contact_area.sto")).string();
 }
 
+// The trial's knee net loads from the workflow's inverse dynamics (<dir>/<name>/<name>_knee_loads.sto),
+// where the workflow wrote them (trials with an id_setup_file) and the setup names none: the knee_load
+// effect's channels, in a standalone diagnosis as in the workflow's own.
+void useWorkflowKneeLoads(TrialSource& t, const std::string& dir) {
+  const fs::path f = fs::path(dir) / t.name / (t.name + "_knee_loads.sto");
+  if (t.knee_loads.empty() && fs::is_regular_file(f)) t.knee_loads = f.string();
+}
+
 TrialSource readTrial(const xml::Node& t, const std::string& dir) {
   static const std::set<std::string> known = {"knee_forces", "contact_area",   "c3d",        "kinematics",
                                               "flexion_column", "flexion_source", "events", "event_times",
@@ -161,14 +169,23 @@ GapSetup readGapSetup(const std::string& path) {
   }
   if (s.trials.empty()) trials.fail("expected at least one <Trial>, got none");
   if (!s.workflow_results.empty())
-    for (auto& t : s.trials)
+    for (auto& t : s.trials) {
       if (t.contact_area.empty()) t.contact_area = workflowAreaFile(s.workflow_results, t.name);
+      useWorkflowKneeLoads(t, s.workflow_results);
+    }
   return s;
 }
 
 void setWorkflowResults(GapSetup& setup, const std::string& directory) {
+  // Knee loads read from the setup's own <workflow_results> follow the folder given now.
+  const std::string before = setup.workflow_results;
   setup.workflow_results = directory;
-  for (auto& t : setup.trials) t.contact_area = workflowAreaFile(directory, t.name);
+  for (auto& t : setup.trials) {
+    t.contact_area = workflowAreaFile(directory, t.name);
+    if (!before.empty() && t.knee_loads == (fs::path(before) / t.name / (t.name + "_knee_loads.sto")).string())
+      t.knee_loads.clear();
+    useWorkflowKneeLoads(t, directory);
+  }
 }
 
 void setContactAreaDirectory(GapSetup& setup, const std::string& directory) {

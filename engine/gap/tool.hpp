@@ -54,7 +54,8 @@ struct GapSetup {
   std::vector<std::string> plugins{"hertz", "gap_effects"};
   std::string law = "hertz";
   /// A KneeContactWorkflow's results folder ("" none): trials without a contact-area file read
-  /// <workflow_results>/<name>/<name>_contact_area.sto (setWorkflowResults).
+  /// <workflow_results>/<name>/<name>_contact_area.sto, and trials without <knee_loads> its
+  /// <name>/<name>_knee_loads.sto where the workflow's inverse dynamics wrote one (setWorkflowResults).
   std::string workflow_results;
   std::vector<std::string> effects;  ///< Empty: every loaded effect.
   std::vector<TrialSource> trials;
@@ -72,8 +73,10 @@ void setContactAreaDirectory(GapSetup& setup, const std::string& directory);
 
 /// Points every trial at a KneeContactWorkflow's results folder @p directory: its contact-area
 /// file becomes <directory>/<name>/<name>_contact_area.sto (the workflow's output: areas at every
-/// threshold, the flexion coordinate and, with area_derivatives, dS_dflexion and dS_dap). How
-/// `kneesim gap --workflow-results DIR` and the workflow's own gap step use its areas.
+/// threshold, the flexion coordinate and, with area_derivatives, dS_dflexion and dS_dap), and a
+/// trial without its own <knee_loads> reads <directory>/<name>/<name>_knee_loads.sto where that file
+/// exists (the workflow writes it for trials with an id_setup_file: the knee_load effect's channels).
+/// How `kneesim gap --workflow-results DIR` and the workflow's own gap step use its results.
 void setWorkflowResults(GapSetup& setup, const std::string& directory);
 
 /// What runGap produced.

@@ -101,12 +101,8 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
   for (const std::string& file : setup.gap_setup_files) {
     if (!fs::exists(file)) throw InputError({setup.setup_file, 0, "gap_setup_file"}, "gap setup file not found: " + file);
     gap::GapSetup gs = gap::readGapSetup(file);
+    // The areas and the knee's net loads (knee_load effect) this run just wrote.
     gap::setWorkflowResults(gs, setup.results_directory);
-    // The knee's net loads this run computed become the trials' knee_* channels (knee_load effect).
-    for (gap::TrialSource& t : gs.trials)
-      for (const WorkflowTrialResult& r : report.trials)
-        if (t.knee_loads.empty() && r.name == t.name && !r.knee_loads.at_frames.empty())
-          t.knee_loads = (fs::path(trialDirectory(setup, r.name)) / (r.name + "_knee_loads.sto")).string();
     gs.results_directory = (fs::path(setup.results_directory) / "gap" / gs.name).string();
     if (!setup.plots) gs.report.plots = false;
     progress("gap " + gs.name, 0, 1);

@@ -16,6 +16,7 @@ namespace kneesim::gap {
 namespace {
 
 using ::testing::HasSubstr;
+namespace fs = std::filesystem;
 
 std::string writeSetup(const std::string& dir, const std::string& body) {
   const std::string path = dir + "/gap.xml";
@@ -94,21 +95,37 @@ TEST(GapTool, SetupErrorsNameTheFileAndElement) {
   expectError("<IKTool/>", "expected a <GapTool> element, got <IKTool>");
 }
 
-// A workflow's results folder: trials without <contact_area> read <dir>/<name>/<name>_contact_area.sto.
+// A workflow's results folder: trials without <contact_area> read <dir>/<name>/<name>_contact_area.sto,
+// and trials without <knee_loads> the <name>_knee_loads.sto its inverse dynamics wrote, where it did
+// (issue 18: `kneesim gap --workflow-results DIR` read the areas only).
 TEST(GapTool, ReadsTheWorkflowsResultsFolder) {
   const std::string dir = ::kneesim::test::scratchDir("gap_tool_workflow");
+  auto touch = [](const std::string& path) {
+    fs::create_directories(fs::path(path).parent_path());
+    std::ofstream(path) << "\n";
+  };
+  touch(dir + "/wf/walk/walk_knee_loads.sto");
+  touch(dir + "/run/stairs/stairs_knee_loads.sto");
+  touch(dir + "/run/hop/hop_knee_loads.sto");
   GapSetup s = readGapSetup(writeSetup(dir, R"(<GapTool name="demo">
   <workflow_results>wf</workflow_results>
   <trials>
     <Trial name="walk"><knee_forces>walk.csv</knee_forces></Trial>
     <Trial name="stairs" activity="stair"><knee_forces>s.csv</knee_forces><contact_area>own.sto</contact_area></Trial>
+    <Trial name="hop"><knee_forces>h.csv</knee_forces><knee_loads>mine.sto</knee_loads></Trial>
   </trials>
 </GapTool>)"));
   EXPECT_EQ(s.workflow_results, dir + "/wf");
   EXPECT_EQ(s.trials[0].contact_area, dir + "/wf/walk/walk_contact_area.sto");
   EXPECT_EQ(s.trials[1].contact_area, dir + "/own.sto");
-  setWorkflowResults(s, "/run");
-  EXPECT_EQ(s.trials[1].contact_area, "/run/stairs/stairs_contact_area.sto");
+  EXPECT_EQ(s.trials[0].knee_loads, dir + "/wf/walk/walk_knee_loads.sto");
+  EXPECT_EQ(s.trials[1].knee_loads, "");  // the workflow wrote none for it
+  EXPECT_EQ(s.trials[2].knee_loads, dir + "/mine.sto");
+  setWorkflowResults(s, dir + "/run");  // as kneesim gap --workflow-results does
+  EXPECT_EQ(s.trials[1].contact_area, dir + "/run/stairs/stairs_contact_area.sto");
+  EXPECT_EQ(s.trials[0].knee_loads, "");  // the setup's folder's file no longer applies
+  EXPECT_EQ(s.trials[1].knee_loads, dir + "/run/stairs/stairs_knee_loads.sto");
+  EXPECT_EQ(s.trials[2].knee_loads, dir + "/mine.sto");  // the setup's own file stays
 }
 
 // The whole tool on JW's gait and stair trials with the workflow's real areas (fixtures): every
