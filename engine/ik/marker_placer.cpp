@@ -83,6 +83,156 @@ Pass solvePass(const model::ModelPtr& current, const std::vector<PlacerMarker>& 
 
 }  // namespace
 
+namespace {
+
+/// The markers' positions in their bodies during the alternation: the model's (p0), the current
+/// ones (p), which have a position yet (placed) and which sit at the movement limit (clamped).
+struct Placement {
+  std::vector<Vector3d> p0, p;
+  std::vector<char> placed, clamped;
+};
+
+/// The p step, G(p): each movable marker at the (prior-weighted) mean of its measured positions
+/// in its body frame at @p poses. Fills rec's objective and max_movement; updates placed, clamped.
+std::vector<Vector3d> stepMarkers(const model::Model& current, const std::vector<PlacerMarker>& markers,
+                                  const std::vector<PlacerTrial>& trials,
+                                  const std::vector<std::vector<Eigen::VectorXd>>& poses, const std::vector<double>& w,
+                                  const MarkerPlacerOptions& options, const sim::System& system, sim::Workspace& ws,
+                                  Placement& s, PlacerIteration& rec) {
+  const size_t n = markers.size();
+  std::vector<Vector3d> sum(n, Vector3d::Zero());
+  std::vector<double> count(n, 0.0);
+  for (size_t t = 0; t < trials.size(); ++t)
+    for (size_t f = 0; f < trials[t].observed.size(); ++f) {
+      system.realizePosition(ws, poses[t][f]);
+      for (size_t i = 0; i < n; ++i) {
+        const Vector3d& x = trials[t].observed[f][i];
+        if (!x.allFinite()) continue;
+        const int body = current.markers[markers[i].marker].body;
+        const Eigen::Isometry3d X_GB = system.getBodyPose(ws, body);
+        const Vector3d y = X_GB.inverse() * x;
+        sum[i] += trials[t].weight * y;
+        count[i] += trials[t].weight;
+        rec.objective += w[i] * trials[t].weight * (y - s.p[i]).squaredNorm();
+      }
+    }
+  std::vector<Vector3d> g = s.p;
+  double max_move = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (s.placed[i] && !markers[i].unplaced) rec.objective += w[i] * options.prior_weight * (s.p[i] - s.p0[i]).squaredNorm();
+    if (!markers[i].move || count[i] <= 0) continue;
+    const double mu = markers[i].unplaced ? 0.0 : options.prior_weight;
+    Vector3d np = (sum[i] + mu * s.p0[i]) / (count[i] + mu);
+    s.clamped[i] = 0;
+    if (!markers[i].unplaced) {
+      const Vector3d d = np - s.p0[i];
+      if (d.norm() > options.max_marker_movement) {
+        np = s.p0[i] + d * (options.max_marker_movement / d.norm());
+        s.clamped[i] = 1;
+      }
+    }
+    max_move = std::max(max_move, (np - s.p[i]).norm());
+    g[i] = np;
+    s.placed[i] = 1;
+  }
+  rec.max_movement = max_move;
+  return g;
+}
+
+/// Anderson acceleration of the fixed-point map p -> G(p) (one q step and one p step): the plain
+/// alternation crawls along directions the data see only weakly (e.g. a hip centre from gait), at
+/// a rate near 1 per iteration. History of the last kDepth steps; an accelerated point that raises
+/// the objective J is dropped for the plain step from the previous point.
+class Anderson {
+ public:
+  /// The next point after P = p with image G = G(p) and objective J at p. The history starts
+  /// again while markers are still being placed (@p all_placed_before false).
+  Eigen::VectorXd next(const Eigen::VectorXd& P, const Eigen::VectorXd& G, double J, bool all_placed_before,
+                       const std::vector<PlacerMarker>& markers, const MarkerPlacerOptions& options, Placement& s) {
+    const int N = int(P.size());
+    Eigen::VectorXd next = G;
+    if (!all_placed_before) {
+      hist_f_.clear();
+      hist_g_.clear();
+      return next;
+    }
+    if (J > prev_J_ * (1 + 1e-12) && prev_G_.size() == N) {
+      // The accelerated point did worse than the point before it: take the plain step from there.
+      s.clamped = prev_clamped_;
+      hist_f_.clear();
+      hist_g_.clear();
+      return prev_G_;
+    }
+    hist_f_.push_back(G - P);
+    hist_g_.push_back(G);
+    if (int(hist_f_.size()) > kDepth + 1) {
+      hist_f_.erase(hist_f_.begin());
+      hist_g_.erase(hist_g_.begin());
+    }
+    const int depth = int(hist_f_.size()) - 1;
+    if (depth > 0) {
+      Eigen::MatrixXd dF(N, depth), dG(N, depth);
+      for (int k = 0; k < depth; ++k) {
+        dF.col(k) = hist_f_[k + 1] - hist_f_[k];
+        dG.col(k) = hist_g_[k + 1] - hist_g_[k];
+      }
+      const Eigen::VectorXd gamma = dF.colPivHouseholderQr().solve(hist_f_.back());
+      if (gamma.allFinite()) next = G - dG * gamma;
+      for (size_t i = 0; i < markers.size(); ++i) {  // keep fixed markers and the movement limit
+        if (!markers[i].move) next.segment<3>(3 * i) = P.segment<3>(3 * i);
+        if (markers[i].unplaced || !markers[i].move) continue;
+        const Vector3d d = Vector3d(next.segment<3>(3 * i)) - s.p0[i];
+        if (d.norm() > options.max_marker_movement)
+          next.segment<3>(3 * i) = s.p0[i] + d * (options.max_marker_movement / d.norm());
+      }
+    }
+    prev_J_ = J;
+    prev_G_ = G;
+    prev_clamped_ = s.clamped;
+    return next;
+  }
+
+ private:
+  static constexpr int kDepth = 5;
+  std::vector<Eigen::VectorXd> hist_f_, hist_g_;  // residuals f = G(p) - p and images G(p)
+  Eigen::VectorXd prev_G_;
+  double prev_J_ = kInf;
+  std::vector<char> prev_clamped_;
+};
+
+Eigen::VectorXd flatten(const std::vector<Vector3d>& v) {
+  Eigen::VectorXd out(3 * Eigen::Index(v.size()));
+  for (size_t i = 0; i < v.size(); ++i) out.segment<3>(3 * i) = v[i];
+  return out;
+}
+
+/// Each marker's report: where it was and is, whether clamped, its RMS error over @p pass.
+std::vector<PlacedMarkerReport> reportMarkers(const model::Model& current, const std::vector<PlacerMarker>& markers,
+                                              const Placement& s, const Pass& pass) {
+  std::vector<PlacedMarkerReport> out;
+  for (size_t i = 0; i < markers.size(); ++i) {
+    PlacedMarkerReport r;
+    const model::Marker& mk = current.markers[markers[i].marker];
+    r.name = mk.name;
+    r.body = current.bodies[mk.body].name;
+    r.initial = s.p0[i];
+    r.placed = s.p[i];
+    r.clamped = s.clamped[i];
+    double sum2 = 0;
+    for (const auto& trial : pass.errors)
+      for (const auto& frame : trial)
+        if (std::isfinite(frame[i])) {
+          ++r.frames;
+          sum2 += frame[i] * frame[i];
+        }
+    r.rms_error = r.frames > 0 ? std::sqrt(sum2 / r.frames) : 0.0;
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace
+
 MarkerPlacerResult placeMarkers(const model::ModelPtr& model, const std::vector<PlacerMarker>& markers,
                                 const std::vector<CoordinateTask>& coordinate_tasks,
                                 const std::vector<double>& coordinate_references,
@@ -93,132 +243,46 @@ MarkerPlacerResult placeMarkers(const model::ModelPtr& model, const std::vector<
   for (const PlacerTrial& t : trials)
     for (const auto& frame : t.observed) KNEESIM_CHECK(frame.size() == n, "one observed position per placer marker");
 
-  std::vector<Vector3d> p0(n), p(n);
-  std::vector<char> placed(n), clamped(n, 0);
+  Placement s;
+  s.p0.resize(n);
+  s.p.resize(n);
+  s.placed.resize(n);
+  s.clamped.assign(n, 0);
   for (size_t i = 0; i < n; ++i) {
-    p0[i] = p[i] = m0.markers[markers[i].marker].p_BM;
-    placed[i] = !markers[i].unplaced;
+    s.p0[i] = s.p[i] = m0.markers[markers[i].marker].p_BM;
+    s.placed[i] = !markers[i].unplaced;
   }
 
   MarkerPlacerResult result;
   std::vector<std::vector<Eigen::VectorXd>> poses;
-  std::shared_ptr<model::Model> current = withMarkers(m0, markers, p);
-  // Anderson acceleration of the fixed-point map p -> G(p) (one q step and one p step): the
-  // plain alternation crawls along directions the data see only weakly (e.g. a hip centre from
-  // gait), at a rate near 1 per iteration. History of the last kDepth steps; an accelerated point
-  // that raises J is dropped for the plain step from the previous point.
-  constexpr int kDepth = 5;
-  const int N = int(3 * n);
-  auto flatten = [&](const std::vector<Vector3d>& v) {
-    Eigen::VectorXd out(N);
-    for (size_t i = 0; i < n; ++i) out.segment<3>(3 * i) = v[i];
-    return out;
-  };
-  std::vector<Eigen::VectorXd> hist_f, hist_g;  // residuals f = G(p) - p and images G(p)
-  Eigen::VectorXd prev_G;
-  double prev_J = kInf;
-  std::vector<char> prev_clamped;
+  std::shared_ptr<model::Model> current = withMarkers(m0, markers, s.p);
+  Anderson anderson;
   for (int it = 0; it < options.max_iterations; ++it) {
     // q step: IK of every frame with the markers held.
     sim::System system(current);
     auto ws = system.createWorkspace();
     std::vector<double> w(n);
-    for (size_t i = 0; i < n; ++i) w[i] = placed[i] ? markers[i].weight : 0.0;
+    for (size_t i = 0; i < n; ++i) w[i] = s.placed[i] ? markers[i].weight : 0.0;
     Pass pass = solvePass(current, markers, w, coordinate_tasks, coordinate_references, trials,
                           poses.empty() ? nullptr : &poses, options.solver, system, *ws);
     poses = pass.poses;
 
-    // p step: each movable marker at the (prior-weighted) mean of its measured positions in its
-    // body frame.
-    std::vector<Vector3d> sum(n, Vector3d::Zero());
-    std::vector<double> count(n, 0.0);
     PlacerIteration rec;
     rec.mean_rms = pass.mean_rms;
-    for (size_t t = 0; t < trials.size(); ++t)
-      for (size_t f = 0; f < trials[t].observed.size(); ++f) {
-        system.realizePosition(*ws, poses[t][f]);
-        for (size_t i = 0; i < n; ++i) {
-          const Vector3d& x = trials[t].observed[f][i];
-          if (!x.allFinite()) continue;
-          const int body = current->markers[markers[i].marker].body;
-          const Eigen::Isometry3d X_GB = system.getBodyPose(*ws, body);
-          const Vector3d y = X_GB.inverse() * x;
-          sum[i] += trials[t].weight * y;
-          count[i] += trials[t].weight;
-          rec.objective += w[i] * trials[t].weight * (y - p[i]).squaredNorm();
-        }
-      }
-    std::vector<Vector3d> g = p;  // G(p)
-    double max_move = 0;
-    const bool all_placed_before = std::all_of(placed.begin(), placed.end(), [](char c) { return c != 0; });
-    for (size_t i = 0; i < n; ++i) {
-      if (placed[i] && !markers[i].unplaced) rec.objective += w[i] * options.prior_weight * (p[i] - p0[i]).squaredNorm();
-      if (!markers[i].move || count[i] <= 0) continue;
-      const double mu = markers[i].unplaced ? 0.0 : options.prior_weight;
-      Vector3d np = (sum[i] + mu * p0[i]) / (count[i] + mu);
-      clamped[i] = 0;
-      if (!markers[i].unplaced) {
-        const Vector3d d = np - p0[i];
-        if (d.norm() > options.max_marker_movement) {
-          np = p0[i] + d * (options.max_marker_movement / d.norm());
-          clamped[i] = 1;
-        }
-      }
-      max_move = std::max(max_move, (np - p[i]).norm());
-      g[i] = np;
-      placed[i] = 1;
-    }
-    rec.max_movement = max_move;
+    const bool all_placed_before = std::all_of(s.placed.begin(), s.placed.end(), [](char c) { return c != 0; });
+    const std::vector<Vector3d> g = stepMarkers(*current, markers, trials, poses, w, options, system, *ws, s, rec);
     result.iterations.push_back(rec);
-
-    const Eigen::VectorXd P = flatten(p), G = flatten(g);
-    if (max_move < options.tolerance) {
-      p = g;
+    if (rec.max_movement < options.tolerance) {
+      s.p = g;
       result.converged = true;
       break;
     }
-    Eigen::VectorXd next = G;
-    if (!all_placed_before) {
-      hist_f.clear();
-      hist_g.clear();
-    } else if (rec.objective > prev_J * (1 + 1e-12) && prev_G.size() == N) {
-      // The accelerated point did worse than the point before it: take the plain step from there.
-      next = prev_G;
-      clamped = prev_clamped;
-      hist_f.clear();
-      hist_g.clear();
-    } else {
-      hist_f.push_back(G - P);
-      hist_g.push_back(G);
-      if (int(hist_f.size()) > kDepth + 1) {
-        hist_f.erase(hist_f.begin());
-        hist_g.erase(hist_g.begin());
-      }
-      const int depth = int(hist_f.size()) - 1;
-      if (depth > 0) {
-        Eigen::MatrixXd dF(N, depth), dG(N, depth);
-        for (int k = 0; k < depth; ++k) {
-          dF.col(k) = hist_f[k + 1] - hist_f[k];
-          dG.col(k) = hist_g[k + 1] - hist_g[k];
-        }
-        const Eigen::VectorXd gamma = dF.colPivHouseholderQr().solve(hist_f.back());
-        if (gamma.allFinite()) next = G - dG * gamma;
-        for (size_t i = 0; i < n; ++i) {  // keep fixed markers and the movement limit
-          if (!markers[i].move) next.segment<3>(3 * i) = P.segment<3>(3 * i);
-          if (markers[i].unplaced || !markers[i].move) continue;
-          const Vector3d d = Vector3d(next.segment<3>(3 * i)) - p0[i];
-          if (d.norm() > options.max_marker_movement)
-            next.segment<3>(3 * i) = p0[i] + d * (options.max_marker_movement / d.norm());
-        }
-      }
-      prev_J = rec.objective;
-      prev_G = G;
-      prev_clamped = clamped;
-    }
-    for (size_t i = 0; i < n; ++i) p[i] = next.segment<3>(3 * i);
-    current = withMarkers(m0, markers, p);
+    const Eigen::VectorXd next = anderson.next(flatten(s.p), flatten(g), rec.objective, all_placed_before, markers,
+                                               options, s);
+    for (size_t i = 0; i < n; ++i) s.p[i] = next.segment<3>(3 * i);
+    current = withMarkers(m0, markers, s.p);
   }
-  current = withMarkers(m0, markers, p);
+  current = withMarkers(m0, markers, s.p);
 
   // Final pass with the placed markers, for the figures and the poses.
   sim::System system(current);
@@ -230,24 +294,7 @@ MarkerPlacerResult placeMarkers(const model::ModelPtr& model, const std::vector<
   result.poses = pass.poses;
   result.trial_mean_rms = pass.trial_mean_rms;
   result.model = current;
-  for (size_t i = 0; i < n; ++i) {
-    PlacedMarkerReport r;
-    const model::Marker& mk = current->markers[markers[i].marker];
-    r.name = mk.name;
-    r.body = current->bodies[mk.body].name;
-    r.initial = p0[i];
-    r.placed = p[i];
-    r.clamped = clamped[i];
-    double sum2 = 0;
-    for (const auto& trial : pass.errors)
-      for (const auto& frame : trial)
-        if (std::isfinite(frame[i])) {
-          ++r.frames;
-          sum2 += frame[i] * frame[i];
-        }
-    r.rms_error = r.frames > 0 ? std::sqrt(sum2 / r.frames) : 0.0;
-    result.markers.push_back(r);
-  }
+  result.markers = reportMarkers(*current, markers, s, pass);
   return result;
 }
 
@@ -337,30 +384,19 @@ MarkerPlacerSetup readMarkerPlacerSetup(const std::string& path) {
   return s;
 }
 
-MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
-  if (!fs::exists(setup.model_file))
-    throw InputError({setup.setup_file, 0, "model_file"}, "model file not found: " + setup.model_file);
-  model::ModelPtr model = model::readOsim(setup.model_file);
-  const model::Model& m = *model;
+namespace {
 
-  std::vector<io::MarkerTable> tables;
-  for (const PlacerTrialSpec& t : setup.trials) {
-    if (!fs::exists(t.marker_file)) throw InputError(t.where, "marker file not found: " + t.marker_file);
-    tables.push_back(io::readMarkerFile(t.marker_file));
-  }
-
-  // Markers: every model marker found in some trial. IK weights from the task set (weight 0 for
-  // markers it leaves out); without a task set every marker weighs 1.
-  std::set<std::string> unplaced(setup.unplaced_markers.begin(), setup.unplaced_markers.end());
-  std::set<std::string> fixed(setup.fixed_markers.begin(), setup.fixed_markers.end());
-  for (const std::string& nm : unplaced)
-    if (m.findMarker(nm) < 0)
-      throw InputError({setup.setup_file, 0, "unplaced_markers"}, "unknown marker '" + nm + "' (not in " + setup.model_file + ")");
-  for (const std::string& nm : fixed)
-    if (m.findMarker(nm) < 0)
-      throw InputError({setup.setup_file, 0, "fixed_markers"}, "unknown marker '" + nm + "' (not in " + setup.model_file + ")");
+/// The markers and coordinate tasks a placement uses, with each marker's column in each trial.
+struct PlacerPlan {
   std::vector<CoordinateTask> coord_tasks;
   std::vector<double> refs;
+  std::vector<PlacerMarker> markers;
+  std::vector<std::vector<int>> columns;  // per marker, per trial
+};
+
+/// Each model marker's IK weight from the task set (weight 0 for markers it leaves out; without a
+/// task set every marker weighs 1); the applied coordinate tasks with their references go to @p plan.
+std::vector<double> readPlacerTasks(const MarkerPlacerSetup& setup, const model::Model& m, PlacerPlan& plan) {
   std::vector<double> weight(m.markers.size(), setup.tasks.empty() ? 1.0 : 0.0);
   for (const TaskSpec& t : setup.tasks) {
     if (t.kind == TaskSpec::Kind::Marker) {
@@ -373,12 +409,25 @@ MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
       if (!t.apply || t.weight == 0) continue;
       if (t.value_type == "from_file")
         throw InputError(t.where, "expected default_value or manual_value for a marker placer coordinate task, got from_file");
-      coord_tasks.push_back({ci, t.weight});
-      refs.push_back(t.value_type == "manual_value" ? t.value : m.coordinates[ci].default_value);
+      plan.coord_tasks.push_back({ci, t.weight});
+      plan.refs.push_back(t.value_type == "manual_value" ? t.value : m.coordinates[ci].default_value);
     }
   }
-  std::vector<PlacerMarker> markers;
-  std::vector<std::vector<int>> columns;  // per marker, per trial
+  return weight;
+}
+
+/// Markers: every model marker found in some trial, with its IK weight and whether it may move.
+PlacerPlan planPlacement(const MarkerPlacerSetup& setup, const model::Model& m, const std::vector<io::MarkerTable>& tables) {
+  std::set<std::string> unplaced(setup.unplaced_markers.begin(), setup.unplaced_markers.end());
+  std::set<std::string> fixed(setup.fixed_markers.begin(), setup.fixed_markers.end());
+  for (const std::string& nm : unplaced)
+    if (m.findMarker(nm) < 0)
+      throw InputError({setup.setup_file, 0, "unplaced_markers"}, "unknown marker '" + nm + "' (not in " + setup.model_file + ")");
+  for (const std::string& nm : fixed)
+    if (m.findMarker(nm) < 0)
+      throw InputError({setup.setup_file, 0, "fixed_markers"}, "unknown marker '" + nm + "' (not in " + setup.model_file + ")");
+  PlacerPlan plan;
+  const std::vector<double> weight = readPlacerTasks(setup, m, plan);
   for (size_t i = 0; i < m.markers.size(); ++i) {
     std::vector<int> cols;
     bool any = false;
@@ -392,12 +441,17 @@ MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
     pm.weight = weight[i];
     pm.move = !m.markers[i].fixed && !fixed.count(m.markers[i].name);
     pm.unplaced = unplaced.count(m.markers[i].name) > 0;
-    markers.push_back(pm);
-    columns.push_back(cols);
+    plan.markers.push_back(pm);
+    plan.columns.push_back(cols);
   }
-  if (markers.empty())
+  if (plan.markers.empty())
     throw InputError({setup.setup_file, 0, ""}, "no model marker is found in the trials' marker files");
+  return plan;
+}
 
+/// Each trial's frames in its time range, every frame_stride-th, that hold a tracked marker.
+std::vector<PlacerTrial> makeTrials(const MarkerPlacerSetup& setup, const std::vector<io::MarkerTable>& tables,
+                                    const PlacerPlan& plan) {
   std::vector<PlacerTrial> trials;
   for (size_t t = 0; t < setup.trials.size(); ++t) {
     const PlacerTrialSpec& spec = setup.trials[t];
@@ -409,12 +463,12 @@ MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
     for (int f = 0; f < tab.getNumFrames(); ++f) {
       if (tab.time[f] < spec.time_start - 1e-9 || tab.time[f] > spec.time_end + 1e-9) continue;
       if (k++ % spec.frame_stride != 0) continue;
-      std::vector<Vector3d> obs(markers.size(), Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+      std::vector<Vector3d> obs(plan.markers.size(), Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
       int present = 0;
-      for (size_t i = 0; i < markers.size(); ++i)
-        if (columns[i][t] >= 0) {
-          obs[i] = tab.getPosition(f, columns[i][t]);
-          present += obs[i].allFinite() && markers[i].weight > 0 ? 1 : 0;
+      for (size_t i = 0; i < plan.markers.size(); ++i)
+        if (plan.columns[i][t] >= 0) {
+          obs[i] = tab.getPosition(f, plan.columns[i][t]);
+          present += obs[i].allFinite() && plan.markers[i].weight > 0 ? 1 : 0;
         }
       if (present == 0) continue;
       trial.time.push_back(tab.time[f]);
@@ -428,10 +482,11 @@ MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
     }
     trials.push_back(std::move(trial));
   }
+  return trials;
+}
 
-  MarkerPlacerResult result = placeMarkers(model, markers, coord_tasks, refs, trials, setup.options);
-
-  // Outputs, prepared before any is written.
+/// The placed model as an .osim file whose comment says how it was made.
+std::string formatPlacedModel(const MarkerPlacerSetup& setup, const model::Model& placed) {
   model::OsimWriteOptions wo;
   wo.comment = {"Markers registered by kneesim's marker placer: `kneesim run " + fs::path(setup.setup_file).filename().string() +
                 "` from " + fs::path(setup.model_file).filename().string() + " and the trials:"};
@@ -441,33 +496,43 @@ MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
        << t.time_end << " s, every " << t.frame_stride << " frame(s), weight " << t.weight;
     wo.comment.push_back(os.str());
   }
-  const std::string model_text = model::formatOsim(*result.model, wo);
-  std::string csv;
-  if (!setup.output_marker_file.empty()) {
-    std::ostringstream os;
-    os << std::setprecision(10);
-    os << "marker,body,x_m,y_m,z_m,initial_x_m,initial_y_m,initial_z_m,moved_m,frames,rms_error_m,clamped\n";
-    for (const PlacedMarkerReport& r : result.markers)
-      os << r.name << "," << r.body << "," << r.placed.x() << "," << r.placed.y() << "," << r.placed.z() << ","
-         << r.initial.x() << "," << r.initial.y() << "," << r.initial.z() << "," << (r.placed - r.initial).norm()
-         << "," << r.frames << "," << r.rms_error << "," << (r.clamped ? 1 : 0) << "\n";
-    csv = os.str();
+  return model::formatOsim(placed, wo);
+}
+
+/// One row per marker: where it is, where it was, how far it moved, its error, whether clamped.
+std::string formatMarkerTable(const MarkerPlacerResult& result) {
+  std::ostringstream os;
+  os << std::setprecision(10);
+  os << "marker,body,x_m,y_m,z_m,initial_x_m,initial_y_m,initial_z_m,moved_m,frames,rms_error_m,clamped\n";
+  for (const PlacedMarkerReport& r : result.markers)
+    os << r.name << "," << r.body << "," << r.placed.x() << "," << r.placed.y() << "," << r.placed.z() << ","
+       << r.initial.x() << "," << r.initial.y() << "," << r.initial.z() << "," << (r.placed - r.initial).norm()
+       << "," << r.frames << "," << r.rms_error << "," << (r.clamped ? 1 : 0) << "\n";
+  return os.str();
+}
+
+}  // namespace
+
+MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
+  if (!fs::exists(setup.model_file))
+    throw InputError({setup.setup_file, 0, "model_file"}, "model file not found: " + setup.model_file);
+  model::ModelPtr model = model::readOsim(setup.model_file);
+  const model::Model& m = *model;
+
+  std::vector<io::MarkerTable> tables;
+  for (const PlacerTrialSpec& t : setup.trials) {
+    if (!fs::exists(t.marker_file)) throw InputError(t.where, "marker file not found: " + t.marker_file);
+    tables.push_back(io::readMarkerFile(t.marker_file));
   }
+  const PlacerPlan plan = planPlacement(setup, m, tables);
+  const std::vector<PlacerTrial> trials = makeTrials(setup, tables, plan);
+  MarkerPlacerResult result = placeMarkers(model, plan.markers, plan.coord_tasks, plan.refs, trials, setup.options);
+
+  // Outputs, prepared before any is written.
+  const std::string model_text = formatPlacedModel(setup, *result.model);
+  const std::string csv = setup.output_marker_file.empty() ? std::string() : formatMarkerTable(result);
   io::Storage motion;
-  if (!setup.output_motion_file.empty()) {
-    motion.name = setup.trials[0].name;
-    motion.in_degrees = true;
-    motion.labels.push_back("time");
-    for (const auto& c : m.coordinates) motion.labels.push_back(c.name);
-    const auto& poses = result.poses[0];
-    motion.data.resize(int(poses.size()), int(m.coordinates.size()) + 1);
-    for (size_t k = 0; k < poses.size(); ++k) {
-      motion.data(k, 0) = trials[0].time[k];
-      for (size_t c = 0; c < m.coordinates.size(); ++c)
-        motion.data(k, c + 1) =
-            poses[k][c] * (m.coordinates[c].motion_type == model::MotionType::Rotational ? 180.0 / M_PI : 1.0);
-    }
-  }
+  if (!setup.output_motion_file.empty()) motion = makeMotion(m, setup.trials[0].name, trials[0].time, result.poses[0]);
   writeFileAtomically(setup.output_model_file, [&](std::ostream& os) { os << model_text; });
   if (!csv.empty()) writeFileAtomically(setup.output_marker_file, [&](std::ostream& os) { os << csv; });
   if (!setup.output_motion_file.empty()) io::writeStorage(setup.output_motion_file, motion);

@@ -279,13 +279,10 @@ FrameResult Solver::trackFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   return r;
 }
 
-FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
-                               const std::vector<double>& reference, Eigen::VectorXd& q) {
+double Solver::startFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
+                          const std::vector<double>& reference, Eigen::VectorXd& q, FrameResult& res) {
   const int nm = int(marker_tasks_.size());
   const int nz = int(free_.size());
-  KNEESIM_CHECK(int(observed.size()) == nm && reference.size() == coord_tasks_.size(), "IK input sizes");
-  KNEESIM_CHECK(q.size() == system_.getNumCoordinates(), "IK coordinate vector size");
-  FrameResult res;
   // OpenSim's marker goal is the weighted mean over the markers present in the frame.
   double weight_sum = 0;
   for (int i = 0; i < nm; ++i) {
@@ -301,7 +298,95 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   for (int k = 0; k < nz; ++k) q[free_[k]] = z_[k];
   applyConstraints(q);
   if (hardConstraints()) projectOntoConstraints(ws, z_, q);
-  double cost = evaluate(ws, q, observed, reference);
+  return evaluate(ws, q, observed, reference);
+}
+
+void Solver::formNormalEquations(sim::Workspace& ws, const Eigen::VectorXd& q) {
+  const int nz = int(free_.size());
+  calcResidualJacobian(ws, q);
+  g_.setZero();
+  H_.setZero();
+  if (J_.rows() > 0) {  // no residual (assembly onto constraints alone): Eigen's product would divide by 0
+    g_.noalias() = J_.transpose() * r_;
+    H_.selfadjointView<Eigen::Lower>().rankUpdate(J_.transpose());
+  }
+  // Variables resting on a bound with the gradient pushing outwards stay there this step.
+  for (int k = 0; k < nz; ++k)
+    active_[k] = (z_[k] <= lower_[k] && g_[k] > 0) || (z_[k] >= upper_[k] && g_[k] < 0);
+}
+
+double Solver::solveDampedStep(double lambda) {
+  const int nz = int(free_.size());
+  A_.triangularView<Eigen::Lower>() = H_;
+  for (int k = 0; k < nz; ++k) A_(k, k) += lambda * std::max(H_(k, k), 1e-9) + 1e-14;
+  for (int k = 0; k < nz; ++k)
+    if (active_[k]) {
+      A_.row(k).setZero();
+      A_.col(k).setZero();
+      A_(k, k) = 1.0;
+    }
+  ldlt_.compute(A_);
+  step_ = -g_;
+  for (int k = 0; k < nz; ++k)
+    if (active_[k]) step_[k] = 0.0;
+  ldlt_.solveInPlace(step_);
+  if (hardConstraints()) solveConstrainedStep();
+  double step_size = 0;
+  for (int k = 0; k < nz; ++k) {
+    z_trial_[k] = std::clamp(z_[k] + step_[k], lower_[k], upper_[k]);
+    step_[k] = z_trial_[k] - z_[k];
+    step_size = std::max(step_size, std::abs(step_[k]));
+  }
+  return step_size;
+}
+
+double Solver::placeTrialPoint(sim::Workspace& ws, const Eigen::VectorXd& q, double step_size) {
+  const int nz = int(free_.size());
+  q_trial_ = q;
+  for (int k = 0; k < nz; ++k) q_trial_[free_[k]] = z_trial_[k];
+  applyConstraints(q_trial_);
+  if (!hardConstraints()) return step_size;
+  // Back onto the constraints (the linearised step leaves second-order errors); the step taken
+  // is the projected one.
+  projectOntoConstraints(ws, z_trial_, q_trial_);
+  step_size = 0;
+  for (int k = 0; k < nz; ++k) step_size = std::max(step_size, std::abs(z_trial_[k] - z_[k]));
+  return step_size;
+}
+
+void Solver::finishFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed, FrameResult& res) {
+  // Unweighted marker errors at the solution (the state and model_markers_ hold it).
+  const int nm = int(marker_tasks_.size());
+  for (int i = 0; i < nm; ++i) {
+    if (observed[i].allFinite() && marker_tasks_[i].weight > 0) {
+      const double e = (model_markers_[i] - observed[i]).norm();
+      marker_errors_[i] = e;
+      res.total_squared_error += e * e;
+      if (e > res.max_error) {
+        res.max_error = e;
+        res.worst_marker = i;
+      }
+    } else {
+      marker_errors_[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  res.rms_error = res.markers_used > 0 ? std::sqrt(res.total_squared_error / res.markers_used) : 0.0;
+  if (terms_.getNumConstraints() > 0) {
+    evalConstraintStations(ws, false);  // the state holds the solution
+    for (int k = 0; k < terms_.getNumConstraints(); ++k) {
+      constraint_errors_[k] = terms_.calcViolation(k_points_, k);
+      res.max_constraint_error = std::max(res.max_constraint_error, constraint_errors_[k]);
+    }
+  }
+}
+
+FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
+                               const std::vector<double>& reference, Eigen::VectorXd& q) {
+  const int nz = int(free_.size());
+  KNEESIM_CHECK(observed.size() == marker_tasks_.size() && reference.size() == coord_tasks_.size(), "IK input sizes");
+  KNEESIM_CHECK(q.size() == system_.getNumCoordinates(), "IK coordinate vector size");
+  FrameResult res;
+  double cost = startFrame(ws, observed, reference, q, res);
   double lambda = 1e-6;
   double previous_step = kInf;
 
@@ -315,55 +400,17 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
   // see (e.g. forearm pronation with one wrist marker on a model that does not fit the data).
   for (int it = 0; it < options_.max_iterations && nz > 0; ++it) {
     res.iterations = it + 1;
-    calcResidualJacobian(ws, q);
-    g_.setZero();
-    H_.setZero();
-    if (J_.rows() > 0) {  // no residual (assembly onto constraints alone): Eigen's product would divide by 0
-      g_.noalias() = J_.transpose() * r_;
-      H_.selfadjointView<Eigen::Lower>().rankUpdate(J_.transpose());
-    }
-    // Variables resting on a bound with the gradient pushing outwards stay there this step.
-    for (int k = 0; k < nz; ++k)
-      active_[k] = (z_[k] <= lower_[k] && g_[k] > 0) || (z_[k] >= upper_[k] && g_[k] < 0);
-
+    formNormalEquations(ws, q);
     bool accepted = false, done = false, tried = false;
     double cost_trial = cost, step_size = 0, marker_motion = 0;
     while (!accepted) {
-      A_.triangularView<Eigen::Lower>() = H_;
-      for (int k = 0; k < nz; ++k) A_(k, k) += lambda * std::max(H_(k, k), 1e-9) + 1e-14;
-      for (int k = 0; k < nz; ++k)
-        if (active_[k]) {
-          A_.row(k).setZero();
-          A_.col(k).setZero();
-          A_(k, k) = 1.0;
-        }
-      ldlt_.compute(A_);
-      step_ = -g_;
-      for (int k = 0; k < nz; ++k)
-        if (active_[k]) step_[k] = 0.0;
-      ldlt_.solveInPlace(step_);
-      if (hardConstraints()) solveConstrainedStep();
-      step_size = 0;
-      for (int k = 0; k < nz; ++k) {
-        z_trial_[k] = std::clamp(z_[k] + step_[k], lower_[k], upper_[k]);
-        step_[k] = z_trial_[k] - z_[k];
-        step_size = std::max(step_size, std::abs(step_[k]));
-      }
+      step_size = solveDampedStep(lambda);
       marker_motion = calcMarkerMotion();
       if (lambda <= 1e-3 && (step_size <= options_.step_tolerance || marker_motion <= options_.step_tolerance)) {
         done = true;  // a (nearly) undamped step this small: we are at the minimum
         break;
       }
-      q_trial_ = q;
-      for (int k = 0; k < nz; ++k) q_trial_[free_[k]] = z_trial_[k];
-      applyConstraints(q_trial_);
-      if (hardConstraints()) {
-        // Back onto the constraints (the linearised step leaves second-order errors); the step
-        // taken is the projected one.
-        projectOntoConstraints(ws, z_trial_, q_trial_);
-        step_size = 0;
-        for (int k = 0; k < nz; ++k) step_size = std::max(step_size, std::abs(z_trial_[k] - z_[k]));
-      }
+      step_size = placeTrialPoint(ws, q, step_size);
       cost_trial = evaluate(ws, q_trial_, observed, reference);
       tried = true;
       if (cost_trial <= cost) {
@@ -399,29 +446,7 @@ FrameResult Solver::solveFrame(sim::Workspace& ws, const std::vector<Eigen::Vect
     }
   }
   if (nz == 0) res.converged = true;
-
-  // Unweighted marker errors at the solution (the state and model_markers_ hold it).
-  for (int i = 0; i < nm; ++i) {
-    if (observed[i].allFinite() && marker_tasks_[i].weight > 0) {
-      const double e = (model_markers_[i] - observed[i]).norm();
-      marker_errors_[i] = e;
-      res.total_squared_error += e * e;
-      if (e > res.max_error) {
-        res.max_error = e;
-        res.worst_marker = i;
-      }
-    } else {
-      marker_errors_[i] = std::numeric_limits<double>::quiet_NaN();
-    }
-  }
-  res.rms_error = res.markers_used > 0 ? std::sqrt(res.total_squared_error / res.markers_used) : 0.0;
-  if (terms_.getNumConstraints() > 0) {
-    evalConstraintStations(ws, false);  // the state holds the solution
-    for (int k = 0; k < terms_.getNumConstraints(); ++k) {
-      constraint_errors_[k] = terms_.calcViolation(k_points_, k);
-      res.max_constraint_error = std::max(res.max_constraint_error, constraint_errors_[k]);
-    }
-  }
+  finishFrame(ws, observed, res);
   return res;
 }
 

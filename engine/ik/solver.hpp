@@ -122,6 +122,19 @@ class Solver {
   double projectOntoConstraints(sim::Workspace& ws, Eigen::VectorXd& z, Eigen::VectorXd& q);
   /// Solves the damped step with the linearised hard constraints C dz = -c (Schur complement).
   void solveConstrainedStep();
+  /// The start of solveFrame(): the marker weights of the frame (into @p res's markers_used), q
+  /// clamped to the bounds and onto the constraints; returns the cost there.
+  double startFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed,
+                    const std::vector<double>& reference, Eigen::VectorXd& q, FrameResult& res);
+  /// Gradient g_ and Gauss-Newton matrix H_ at q, and the variables held at a bound (active_).
+  void formNormalEquations(sim::Workspace& ws, const Eigen::VectorXd& q);
+  /// The step with damping @p lambda, clamped to the bounds (step_, z_trial_); returns its size.
+  double solveDampedStep(double lambda);
+  /// q_trial_ from q and z_trial_, projected onto the hard constraints; returns the size of the
+  /// step taken (@p step_size unless the projection changed it).
+  double placeTrialPoint(sim::Workspace& ws, const Eigen::VectorXd& q, double step_size);
+  /// The end of solveFrame(): unweighted marker errors and constraint violations at the solution.
+  void finishFrame(sim::Workspace& ws, const std::vector<Eigen::Vector3d>& observed, FrameResult& res);
   bool hardConstraints() const { return n_eq_ > 0 && !std::isfinite(options_.constraint_weight); }
   bool penaltyConstraints() const { return n_eq_ > 0 && std::isfinite(options_.constraint_weight); }
 

@@ -242,22 +242,10 @@ void addModelWarnings(const model::Model& m, std::vector<std::string>& out) {
   }
 }
 
-}  // namespace
-
-IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
-  model::ModelPtr model = loadModel(setup);
-  if (!fs::exists(setup.marker_file))
-    throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
-  return runIk(setup, std::move(model), io::readMarkerFile(setup.marker_file), options);
-}
-
-IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable markers, const IkRunOptions& options) {
-  KNEESIM_CHECK(model != nullptr, "runIk needs a model");
-  IkReport report;
-  report.model = model;
-  const model::Model& m = *model;
+/// Warnings about the run itself: the model's, Simbody's, an unused constraint_weight, the
+/// kinematics the model describes and IK leaves out.
+void addRunWarnings(const IkSetup& setup, const model::Model& m, const sim::System& system, IkReport& report) {
   addModelWarnings(m, report.warnings);
-  sim::System system(model);
   for (const auto& w : system.getWarnings()) report.warnings.push_back(w);
   if (!m.couplers.empty() && std::isfinite(setup.constraint_weight)) {
     std::ostringstream os;
@@ -267,26 +255,32 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     report.warnings.push_back(os.str());
   }
   if (const std::string w = model::describeIgnoredKinematics(m); !w.empty()) report.warnings.push_back(w);
+}
 
-  if (!setup.marker_rotation_deg.isZero()) {
-    const Eigen::Matrix3d R = model::poseFromXYZ(setup.marker_rotation_deg * (M_PI / 180.0), Eigen::Vector3d::Zero()).linear();
-    for (Eigen::Vector3d& p : markers.positions)
-      if (p.allFinite()) p = R * p;
-  }
-
-  // Tasks -> model markers and data columns, as OpenSim's InverseKinematicsTool: tasks not
-  // applied are not looked at; an applied coordinate task must name a model coordinate; applied
-  // marker tasks restrict tracking to their markers (those the model lacks are skipped, and
-  // said so); with no applied marker task every model marker in the data is tracked at weight 1.
-  struct Tracked {
-    int marker;
-    double weight;
-    const TaskSpec* spec;
-    int column = -1;
-  };
-  std::vector<Tracked> tracked;
+/// What is tracked: the model markers with their data columns, the coordinate tasks.
+struct TrackingPlan {
+  std::vector<MarkerTask> marker_tasks;
+  std::vector<int> marker_columns;
+  std::vector<std::string> marker_names;
   std::vector<CoordinateTask> coord_tasks;
   std::vector<const TaskSpec*> coord_specs;
+};
+
+/// A model marker to track, before its data column is known.
+struct Tracked {
+  int marker;
+  double weight;
+  const TaskSpec* spec;
+  int column = -1;
+};
+
+/// The applied tasks with a non-zero weight, as OpenSim's InverseKinematicsTool reads them: an
+/// applied coordinate task must name a model coordinate; applied marker tasks restrict tracking to
+/// their markers (those the model lacks are skipped, and said so); with no applied marker task
+/// every model marker is tracked at weight 1. Returns the markers; the coordinate tasks go to @p plan.
+std::vector<Tracked> selectTasks(const IkSetup& setup, const model::Model& m, TrackingPlan& plan, IkReport& report,
+                                 bool& all_markers) {
+  std::vector<Tracked> tracked;
   std::vector<std::string> not_in_model;
   bool any_marker_task = false;
   for (const TaskSpec& t : setup.tasks) {
@@ -306,17 +300,27 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
         throw InputError(t.where, "task names coordinate '" + t.name + "' which the model (" + setup.model_file +
                                       ") does not have");
       if (t.weight == 0) continue;
-      coord_tasks.push_back({ci, t.weight});
-      coord_specs.push_back(&t);
+      plan.coord_tasks.push_back({ci, t.weight});
+      plan.coord_specs.push_back(&t);
     }
   }
   if (!not_in_model.empty())
     report.warnings.push_back(std::to_string(not_in_model.size()) + " applied marker task" +
                               (not_in_model.size() > 1 ? "s name markers" : " names a marker") + " the model (" +
                               setup.model_file + ") does not have, not tracked: " + join(not_in_model, ", "));
-  const bool all_markers = !any_marker_task;
+  all_markers = !any_marker_task;
   if (all_markers)  // OpenSim with no task set: every model marker found in the data, weight 1
     for (size_t i = 0; i < m.markers.size(); ++i) tracked.push_back({int(i), 1.0, nullptr});
+  return tracked;
+}
+
+/// Tasks -> model markers and data columns (exact names first, then ignoring separators); markers
+/// not in the data are left out (said so when a task named them).
+TrackingPlan planTracking(const IkSetup& setup, const model::Model& m, const io::MarkerTable& markers,
+                          IkReport& report) {
+  TrackingPlan plan;
+  bool all_markers = false;
+  std::vector<Tracked> tracked = selectTasks(setup, m, plan, report, all_markers);
   MarkerMatcher matcher(markers);
   for (Tracked& t : tracked) t.column = matcher.matchExact(m.markers[t.marker].name);
   for (Tracked& t : tracked)
@@ -324,53 +328,89 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
       t.column = matcher.matchLoose(m.markers[t.marker].name, t.spec ? t.spec->where : setup.locate("IKTaskSet"));
       if (t.column >= 0) ++report.loose_name_matches;
     }
-  std::vector<MarkerTask> marker_tasks;
-  std::vector<int> marker_columns;
-  std::vector<std::string> marker_names;
   std::vector<std::string> not_in_data;
   for (const Tracked& t : tracked) {
     if (t.column < 0) {
       if (!all_markers) not_in_data.push_back(m.markers[t.marker].name);
       continue;
     }
-    marker_tasks.push_back({t.marker, t.weight});
-    marker_columns.push_back(t.column);
-    marker_names.push_back(m.markers[t.marker].name);
+    plan.marker_tasks.push_back({t.marker, t.weight});
+    plan.marker_columns.push_back(t.column);
+    plan.marker_names.push_back(m.markers[t.marker].name);
   }
   if (!not_in_data.empty())
     report.warnings.push_back(std::to_string(not_in_data.size()) + " task marker" +
                               (not_in_data.size() > 1 ? "s are" : " is") + " not in " + setup.marker_file +
                               " and not tracked: " + join(not_in_data, ", "));
-  if (marker_tasks.empty())
+  if (plan.marker_tasks.empty())
     throw InputError(setup.locate(all_markers ? "marker_file" : "IKTaskSet"),
                      "no tracked marker of the model is in " + setup.marker_file +
                          " (expected marker names shared by the model and the marker file)");
+  return plan;
+}
 
-  // Coordinate references from a file, interpolated at marker frame times.
-  io::Storage coord_file;
-  std::vector<int> coord_columns(coord_tasks.size(), -1);
+/// Coordinate references from a file (the column of each from_file task, -1 for the others).
+struct CoordinateFile {
+  io::Storage storage;
+  std::vector<int> columns;
+};
+
+CoordinateFile readCoordinateFile(const IkSetup& setup, const model::Model& m, const TrackingPlan& plan) {
+  CoordinateFile file;
+  file.columns.assign(plan.coord_tasks.size(), -1);
   bool need_file = false;
-  for (const TaskSpec* t : coord_specs) need_file = need_file || t->value_type == "from_file";
-  if (need_file) {
-    if (setup.coordinate_file.empty())
-      throw InputError(setup.locate("coordinate_file"), "a coordinate task uses from_file but no coordinate_file is given");
-    if (!fs::exists(setup.coordinate_file))
-      throw InputError(setup.locate("coordinate_file"), "coordinate file not found: " + setup.coordinate_file);
-    coord_file = io::readStorage(setup.coordinate_file);
-    if (coord_file.getNumRows() == 0)
-      throw InputError({setup.coordinate_file, 0, ""}, "expected at least one row of coordinate values, got none");
-    for (size_t j = 0; j < coord_tasks.size(); ++j) {
-      if (coord_specs[j]->value_type != "from_file") continue;
-      const std::string& name = m.coordinates[coord_tasks[j].coordinate].name;
-      coord_columns[j] = coord_file.findColumn(name);
-      if (coord_columns[j] < 0)
-        throw InputError(coord_specs[j]->where, "coordinate '" + name + "' is not a column of " + setup.coordinate_file);
+  for (const TaskSpec* t : plan.coord_specs) need_file = need_file || t->value_type == "from_file";
+  if (!need_file) return file;
+  if (setup.coordinate_file.empty())
+    throw InputError(setup.locate("coordinate_file"), "a coordinate task uses from_file but no coordinate_file is given");
+  if (!fs::exists(setup.coordinate_file))
+    throw InputError(setup.locate("coordinate_file"), "coordinate file not found: " + setup.coordinate_file);
+  file.storage = io::readStorage(setup.coordinate_file);
+  if (file.storage.getNumRows() == 0)
+    throw InputError({setup.coordinate_file, 0, ""}, "expected at least one row of coordinate values, got none");
+  for (size_t j = 0; j < plan.coord_tasks.size(); ++j) {
+    if (plan.coord_specs[j]->value_type != "from_file") continue;
+    const std::string& name = m.coordinates[plan.coord_tasks[j].coordinate].name;
+    file.columns[j] = file.storage.findColumn(name);
+    if (file.columns[j] < 0)
+      throw InputError(plan.coord_specs[j]->where, "coordinate '" + name + "' is not a column of " + setup.coordinate_file);
+  }
+  return file;
+}
+
+/// The reference of each coordinate task at time @p t: its default value, its manual value, or the
+/// file's value interpolated linearly (held constant beyond the ends), in SI units.
+void calcReferences(const model::Model& m, const TrackingPlan& plan, const CoordinateFile& file, double t,
+                    std::vector<double>& reference) {
+  for (size_t j = 0; j < plan.coord_tasks.size(); ++j) {
+    const TaskSpec& spec = *plan.coord_specs[j];
+    const model::Coordinate& c = m.coordinates[plan.coord_tasks[j].coordinate];
+    if (spec.value_type == "default_value") {
+      reference[j] = c.default_value;
+    } else if (spec.value_type == "manual_value") {
+      reference[j] = spec.value;
+    } else {
+      const auto times = file.storage.data.col(0);
+      const auto vals = file.storage.data.col(file.columns[j]);
+      const Eigen::Index n = times.size();
+      double v = vals[0];
+      if (t >= times[n - 1]) {
+        v = vals[n - 1];
+      } else if (t > times[0]) {
+        Eigen::Index hi = 1;
+        while (times[hi] < t) ++hi;
+        const double a = (t - times[hi - 1]) / (times[hi] - times[hi - 1]);
+        v = (1 - a) * vals[hi - 1] + a * vals[hi];
+      }
+      if (file.storage.in_degrees && c.motion_type == model::MotionType::Rotational) v *= M_PI / 180.0;
+      reference[j] = v;
     }
   }
+}
 
-  // Frames in the time range, as OpenSim picks them: the range is clipped to the data and each
-  // end moves to the nearest frame.
-  std::vector<int> frames;
+/// Frames in the time range, as OpenSim picks them: the range is clipped to the data and each end
+/// moves to the nearest frame.
+std::vector<int> selectFrames(const IkSetup& setup, const io::MarkerTable& markers) {
   const double eps = 1e-9;
   const int n_frames = markers.getNumFrames();
   if (n_frames == 0 || setup.time_start > markers.time.back() + eps || setup.time_end < markers.time.front() - eps) {
@@ -388,26 +428,37 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
   };
   const int first = nearest(std::max(setup.time_start, markers.time.front()));
   const int last = nearest(std::min(setup.time_end, markers.time.back()));
+  std::vector<int> frames;
   for (int f = first; f <= last; ++f) frames.push_back(f);
-  report.frames_total = int(frames.size());
+  return frames;
+}
 
+/// Per solved frame: the coordinates, each tracked marker's error (m, NaN when missing) and, when
+/// asked for, the model markers' locations.
+struct Solutions {
+  std::vector<Eigen::VectorXd> q;
+  std::vector<std::vector<double>> marker_errors;
+  std::vector<std::vector<Eigen::Vector3d>> marker_locations;
+};
+
+/// Tracks the frames in order (warm starts; a frame whose tracked markers are all missing is
+/// skipped, said so, and tracking restarts after it), filling the report's per-frame figures.
+Solutions solveFrames(const IkSetup& setup, const IkRunOptions& options, const model::Model& m,
+                      const sim::System& system, const io::MarkerTable& markers, const TrackingPlan& plan,
+                      const CoordinateFile& coord_file, const std::vector<int>& frames, IkReport& report) {
   SolverOptions solver_options = setup.solver;
   solver_options.constraint_weight = setup.constraint_weight;
-  Solver solver(system, marker_tasks, coord_tasks, solver_options);
+  Solver solver(system, plan.marker_tasks, plan.coord_tasks, solver_options);
   auto ws = system.createWorkspace();
   system.setCouplersEnabled(*ws, false);  // the solver enforces couplers and constraints itself
   system.setConstraintsEnabled(*ws, false);
   Eigen::VectorXd q = system.getDefaultCoordinates();
-  std::vector<Eigen::Vector3d> observed(marker_tasks.size());
-  std::vector<double> reference(coord_tasks.size());
-
-  const int nq = system.getNumCoordinates();
-  const int nm = int(marker_tasks.size());
-  std::vector<Eigen::VectorXd> solutions;
-  std::vector<std::vector<double>> marker_errors;
-  std::vector<std::vector<Eigen::Vector3d>> marker_locations;
-  solutions.reserve(frames.size());
-  marker_errors.reserve(frames.size());
+  const int nm = int(plan.marker_tasks.size());
+  std::vector<Eigen::Vector3d> observed(nm);
+  std::vector<double> reference(plan.coord_tasks.size());
+  Solutions out;
+  out.q.reserve(frames.size());
+  out.marker_errors.reserve(frames.size());
 
   const auto t0 = std::chrono::steady_clock::now();
   for (size_t k = 0; k < frames.size(); ++k) {
@@ -415,7 +466,7 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     const double t = markers.time[f];
     int present = 0;
     for (int i = 0; i < nm; ++i) {
-      observed[i] = markers.getPosition(f, marker_columns[i]);
+      observed[i] = markers.getPosition(f, plan.marker_columns[i]);
       present += observed[i].allFinite() ? 1 : 0;
     }
     if (present == 0) {
@@ -424,57 +475,32 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
       solver.resetTracking();  // do not extrapolate across the gap
       continue;
     }
-    for (size_t j = 0; j < coord_tasks.size(); ++j) {
-      const TaskSpec& spec = *coord_specs[j];
-      const model::Coordinate& c = m.coordinates[coord_tasks[j].coordinate];
-      if (spec.value_type == "default_value") {
-        reference[j] = c.default_value;
-      } else if (spec.value_type == "manual_value") {
-        reference[j] = spec.value;
-      } else {
-        // Linear interpolation, held constant beyond the ends.
-        const auto times = coord_file.data.col(0);
-        const auto vals = coord_file.data.col(coord_columns[j]);
-        const Eigen::Index n = times.size();
-        double v = vals[0];
-        if (t >= times[n - 1]) {
-          v = vals[n - 1];
-        } else if (t > times[0]) {
-          Eigen::Index hi = 1;
-          while (times[hi] < t) ++hi;
-          const double a = (t - times[hi - 1]) / (times[hi] - times[hi - 1]);
-          v = (1 - a) * vals[hi - 1] + a * vals[hi];
-        }
-        if (coord_file.in_degrees && c.motion_type == model::MotionType::Rotational) v *= M_PI / 180.0;
-        reference[j] = v;
-      }
-    }
+    calcReferences(m, plan, coord_file, t, reference);
     const FrameResult r = solver.trackFrame(*ws, observed, reference, q);
     report.iterations += r.iterations;
     report.max_constraint_error = std::max(report.max_constraint_error, r.max_constraint_error);
     report.time.push_back(t);
     report.frames.push_back(r);
-    report.worst_marker.push_back(r.worst_marker >= 0 ? marker_names[r.worst_marker] : "");
-    solutions.push_back(q);
-    marker_errors.push_back(solver.getLastMarkerErrors());
-    if (setup.report_marker_locations) marker_locations.push_back(solver.getLastModelMarkers());
+    report.worst_marker.push_back(r.worst_marker >= 0 ? plan.marker_names[r.worst_marker] : "");
+    out.q.push_back(q);
+    out.marker_errors.push_back(solver.getLastMarkerErrors());
+    if (setup.report_marker_locations) out.marker_locations.push_back(solver.getLastModelMarkers());
     if (options.progress && (k % 16 == 0 || k + 1 == frames.size())) options.progress(int(k + 1), int(frames.size()));
   }
   report.seconds_solving = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  report.frames_solved = int(solutions.size());
-  report.constraints = int(m.constraints.size());
-  report.constraint_weight = setup.constraint_weight;
-  if (solutions.empty())
-    throw InputError({setup.marker_file, 0, ""}, "expected at least one frame with a tracked marker in the time range, "
-                                                 "got every tracked marker missing in every frame");
+  return out;
+}
 
-  // Per-marker summary.
-  for (int i = 0; i < nm; ++i) {
+/// The per-marker summary (frames seen, mean, RMS and largest error) and the run's mean RMS and
+/// largest error.
+void summarizeErrors(const TrackingPlan& plan, const io::MarkerTable& markers, const Solutions& solved,
+                     IkReport& report) {
+  for (size_t i = 0; i < plan.marker_tasks.size(); ++i) {
     MarkerErrorSummary s;
-    s.name = marker_names[i];
-    s.data_label = markers.labels[marker_columns[i]];
+    s.name = plan.marker_names[i];
+    s.data_label = markers.labels[plan.marker_columns[i]];
     double sum = 0, sum2 = 0;
-    for (const auto& e : marker_errors)
+    for (const auto& e : solved.marker_errors)
       if (std::isfinite(e[i])) {
         ++s.frames;
         sum += e[i];
@@ -491,32 +517,13 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     report.mean_rms += r.rms_error / report.frames.size();
     report.max_error = std::max(report.max_error, r.max_error);
   }
+}
 
-  // Outputs: all prepared, then committed together.
-  const double deg = 180.0 / M_PI;
-  io::Storage motion;
-  motion.name = "Coordinates";  // OpenSim's name for the IK motion (its Kinematics analysis)
-  motion.in_degrees = true;
-  motion.labels.push_back("time");
-  for (const auto& c : m.coordinates) motion.labels.push_back(c.name);
-  motion.data.resize(int(solutions.size()), nq + 1);
-  for (size_t k = 0; k < solutions.size(); ++k) {
-    motion.data(k, 0) = report.time[k];
-    for (int c = 0; c < nq; ++c)
-      motion.data(k, c + 1) =
-          solutions[k][c] * (m.coordinates[c].motion_type == model::MotionType::Rotational ? deg : 1.0);
-  }
-  if (!options.write) {
-    report.motion = std::move(motion);
-    return report;
-  }
-  AtomicFileSet own_outputs;
-  AtomicFileSet& outputs = options.stage ? *options.stage : own_outputs;
-  const size_t staged_before = outputs.getPaths().size();
-  outputs.addContents(setup.output_motion_file, io::formatStorage(motion));
-
-  const std::string prefix =
-      (fs::path(setup.results_directory) / ((setup.name.empty() ? std::string() : setup.name + "_") + "ik_")).string();
+/// The error reports (marker_errors.sto, marker_error_table.sto, marker_error_summary.csv) and the
+/// model marker locations, as the setup asks, staged in @p outputs under @p prefix.
+void stageReports(const IkSetup& setup, const IkReport& report, const TrackingPlan& plan, const Solutions& solved,
+                  const std::string& prefix, AtomicFileSet& outputs) {
+  const int nm = int(plan.marker_tasks.size());
   if (setup.report_errors) {
     io::Storage err;
     err.name = "Model Marker Errors from IK";
@@ -532,11 +539,11 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     io::Storage table;
     table.name = "Model Marker Errors per Marker from IK";
     table.labels.push_back("time");
-    for (const auto& n : marker_names) table.labels.push_back(n);
-    table.data.resize(int(marker_errors.size()), nm + 1);
-    for (size_t k = 0; k < marker_errors.size(); ++k) {
+    for (const auto& n : plan.marker_names) table.labels.push_back(n);
+    table.data.resize(int(solved.marker_errors.size()), nm + 1);
+    for (size_t k = 0; k < solved.marker_errors.size(); ++k) {
       table.data(k, 0) = report.time[k];
-      for (int i = 0; i < nm; ++i) table.data(k, i + 1) = marker_errors[k][i];
+      for (int i = 0; i < nm; ++i) table.data(k, i + 1) = solved.marker_errors[k][i];
     }
     outputs.addContents(prefix + "marker_error_table.sto", io::formatStorage(table));
 
@@ -551,20 +558,88 @@ IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable mark
     io::Storage loc;
     loc.name = "Model Marker Locations from IK";
     loc.labels.push_back("time");
-    for (const auto& n : marker_names)
+    for (const auto& n : plan.marker_names)
       for (const char* ax : {"_tx", "_ty", "_tz"}) loc.labels.push_back(n + ax);
-    loc.data.resize(int(marker_locations.size()), 3 * nm + 1);
-    for (size_t k = 0; k < marker_locations.size(); ++k) {
+    loc.data.resize(int(solved.marker_locations.size()), 3 * nm + 1);
+    for (size_t k = 0; k < solved.marker_locations.size(); ++k) {
       loc.data(k, 0) = report.time[k];
-      for (int i = 0; i < nm; ++i) loc.data.block<1, 3>(k, 1 + 3 * i) = marker_locations[k][i].transpose();
+      for (int i = 0; i < nm; ++i) loc.data.block<1, 3>(k, 1 + 3 * i) = solved.marker_locations[k][i].transpose();
     }
     outputs.addContents(prefix + "model_marker_locations.sto", io::formatStorage(loc));
   }
+}
+
+}  // namespace
+
+IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
+  model::ModelPtr model = loadModel(setup);
+  if (!fs::exists(setup.marker_file))
+    throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
+  return runIk(setup, std::move(model), io::readMarkerFile(setup.marker_file), options);
+}
+
+IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable markers, const IkRunOptions& options) {
+  KNEESIM_CHECK(model != nullptr, "runIk needs a model");
+  IkReport report;
+  report.model = model;
+  const model::Model& m = *model;
+  sim::System system(model);
+  addRunWarnings(setup, m, system, report);
+  if (!setup.marker_rotation_deg.isZero()) {
+    const Eigen::Matrix3d R = model::poseFromXYZ(setup.marker_rotation_deg * (M_PI / 180.0), Eigen::Vector3d::Zero()).linear();
+    for (Eigen::Vector3d& p : markers.positions)
+      if (p.allFinite()) p = R * p;
+  }
+  const TrackingPlan plan = planTracking(setup, m, markers, report);
+  const CoordinateFile coord_file = readCoordinateFile(setup, m, plan);
+  const std::vector<int> frames = selectFrames(setup, markers);
+  report.frames_total = int(frames.size());
+  const Solutions solved = solveFrames(setup, options, m, system, markers, plan, coord_file, frames, report);
+  report.frames_solved = int(solved.q.size());
+  report.constraints = int(m.constraints.size());
+  report.constraint_weight = setup.constraint_weight;
+  if (solved.q.empty())
+    throw InputError({setup.marker_file, 0, ""}, "expected at least one frame with a tracked marker in the time range, "
+                                                 "got every tracked marker missing in every frame");
+  summarizeErrors(plan, markers, solved, report);
+
+  // Outputs: all prepared, then committed together.
+  io::Storage motion = makeMotion(m, "Coordinates", report.time, solved.q);  // OpenSim's name for the IK motion
+  if (!options.write) {
+    report.motion = std::move(motion);
+    return report;
+  }
+  AtomicFileSet own_outputs;
+  AtomicFileSet& outputs = options.stage ? *options.stage : own_outputs;
+  const size_t staged_before = outputs.getPaths().size();
+  outputs.addContents(setup.output_motion_file, io::formatStorage(motion));
+  const std::string prefix =
+      (fs::path(setup.results_directory) / ((setup.name.empty() ? std::string() : setup.name + "_") + "ik_")).string();
+  stageReports(setup, report, plan, solved, prefix, outputs);
   report.motion = std::move(motion);
   if (!options.stage) own_outputs.commit();
   const std::vector<std::string> paths = outputs.getPaths();
   report.outputs.assign(paths.begin() + long(staged_before), paths.end());
   return report;
+}
+
+io::Storage makeMotion(const model::Model& m, const std::string& name, const std::vector<double>& time,
+                       const std::vector<Eigen::VectorXd>& q) {
+  KNEESIM_CHECK(time.size() == q.size(), "one time per pose");
+  const double deg = 180.0 / M_PI;
+  const int nq = int(m.coordinates.size());
+  io::Storage motion;
+  motion.name = name;
+  motion.in_degrees = true;
+  motion.labels.push_back("time");
+  for (const auto& c : m.coordinates) motion.labels.push_back(c.name);
+  motion.data.resize(int(q.size()), nq + 1);
+  for (size_t k = 0; k < q.size(); ++k) {
+    motion.data(k, 0) = time[k];
+    for (int c = 0; c < nq; ++c)
+      motion.data(k, c + 1) = q[k][c] * (m.coordinates[c].motion_type == model::MotionType::Rotational ? deg : 1.0);
+  }
+  return motion;
 }
 
 void printIkSummary(const IkReport& report, std::ostream& os) {

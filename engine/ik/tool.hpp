@@ -151,6 +151,11 @@ IkReport runIk(const IkSetup& setup, const IkRunOptions& options = {});
 IkReport runIk(const IkSetup& setup, model::ModelPtr model, io::MarkerTable markers,
                const IkRunOptions& options = {});
 
+/// The coordinates @p q (SI, one vector per time in @p time) as OpenSim writes a motion: a time
+/// column, then one column per model coordinate, rotations in degrees (in_degrees = yes).
+io::Storage makeMotion(const model::Model& m, const std::string& name, const std::vector<double>& time,
+                       const std::vector<Eigen::VectorXd>& q);
+
 /// Writes a readable summary of @p report (per-marker table, worst frames) to @p os.
 void printIkSummary(const IkReport& report, std::ostream& os);
 
