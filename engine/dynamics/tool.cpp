@@ -197,6 +197,58 @@ std::vector<JointLoadRequest> resolveJointLoads(const IdSetup& setup, const mode
   return out;
 }
 
+/// The external loads the setup names: the ground reactions of its force plates (kept in
+/// @p plates for their outputs) or an ExternalLoads file; none when it names neither.
+std::unique_ptr<ExternalLoads> readLoads(const IdSetup& setup, const model::Model& m,
+                                         std::unique_ptr<GroundReactions>& plates, IdReport& report) {
+  if (!setup.plates_c3d_file.empty()) {
+    if (!fs::exists(setup.plates_c3d_file))
+      throw InputError(setup.locate("ForcePlates"), "C3D file not found: " + setup.plates_c3d_file);
+    plates = std::make_unique<GroundReactions>(calcGroundReactions(io::readC3d(setup.plates_c3d_file), setup.plates));
+    return std::make_unique<ExternalLoads>(plates->loads, m, plates->grf);
+  }
+  if (setup.external_loads_file.empty()) return nullptr;
+  if (!fs::exists(setup.external_loads_file))
+    throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
+  auto loads = std::make_unique<ExternalLoads>(readExternalLoads(setup.external_loads_file), m);
+  if (!loads->getSpec().kinematics_file.empty())
+    report.warnings.push_back("external_loads_model_kinematics_file is not used (as in OpenSim 4's InverseDynamicsTool)");
+  return loads;
+}
+
+/// Throws InputError when the force data miss the analysed times altogether; warns when they
+/// cover them only in part.
+void checkLoadTimes(const IdSetup& setup, const ExternalLoads& loads, const std::vector<double>& times, IdReport& report) {
+  // Within a microsecond: the analysed frames sit on OpenSim's resampled grid, which may start a
+  // rounding error before the data's first row.
+  const double a = times.front(), b = times.back(), eps = 1e-6;
+  if (b < loads.getStartTime() - eps || a > loads.getEndTime() + eps)
+    throw InputError(setup.locate(setup.plates_c3d_file.empty() ? "external_loads_file" : "ForcePlates"),
+                     "expected force data overlapping the analysed times " + formatSignificant(a, 6) + " to " +
+                         formatSignificant(b, 6) + " s, got " + formatSignificant(loads.getStartTime(), 6) + " to " +
+                         formatSignificant(loads.getEndTime(), 6) + " s in " + loads.getSpec().datafile);
+  if (a < loads.getStartTime() - eps || b > loads.getEndTime() + eps)
+    report.warnings.push_back("the force data (" + formatSignificant(loads.getStartTime(), 6) + " to " +
+                              formatSignificant(loads.getEndTime(), 6) +
+                              " s) do not cover every analysed frame: their splines are extrapolated there");
+}
+
+/// Which foot each force plate's load went to (a note each), and a warning where the nearest
+/// foot was far from the centre of pressure.
+void reportAssignments(const GroundReactions& plates, IdReport& report) {
+  for (const PlateAssignment& a : plates.assignments)
+    report.notes.push_back("force plate " + std::to_string(a.plate + 1) + " loaded " + formatSignificant(a.start, 4) + "-" +
+                           formatSignificant(a.end, 4) + " s: foot '" + a.foot + "' (its markers " +
+                           formatSignificant(1e3 * a.distance_m, 3) + " mm from the centre of pressure)");
+  for (const PlateAssignment& a : plates.assignments)
+    if (a.distance_m > 0.2)
+      report.warnings.push_back("force plate " + std::to_string(a.plate + 1) + " at " + formatSignificant(a.start, 4) +
+                                "-" + formatSignificant(a.end, 4) + " s: the nearest foot's markers are " +
+                                formatSignificant(1e3 * a.distance_m, 3) +
+                                " mm from the centre of pressure (both feet on the plate?); all of it went to foot '" +
+                                a.foot + "'");
+}
+
 }  // namespace
 
 IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& options) {
@@ -218,20 +270,8 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
   for (const std::string& c : traj.getMissing())
     report.warnings.push_back("coordinate '" + c + "' is not in the coordinates file: held at its default value");
 
-  std::unique_ptr<ExternalLoads> loads;
   std::unique_ptr<GroundReactions> plates;
-  if (!setup.plates_c3d_file.empty()) {
-    if (!fs::exists(setup.plates_c3d_file))
-      throw InputError(setup.locate("ForcePlates"), "C3D file not found: " + setup.plates_c3d_file);
-    plates = std::make_unique<GroundReactions>(calcGroundReactions(io::readC3d(setup.plates_c3d_file), setup.plates));
-    loads = std::make_unique<ExternalLoads>(plates->loads, *model, plates->grf);
-  } else if (!setup.external_loads_file.empty()) {
-    if (!fs::exists(setup.external_loads_file))
-      throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
-    loads = std::make_unique<ExternalLoads>(readExternalLoads(setup.external_loads_file), *model);
-    if (!loads->getSpec().kinematics_file.empty())
-      report.warnings.push_back("external_loads_model_kinematics_file is not used (as in OpenSim 4's InverseDynamicsTool)");
-  }
+  const std::unique_ptr<ExternalLoads> loads = readLoads(setup, *model, plates, report);
 
   const std::vector<double> times =
       selectFrameTimes(traj.getTimes(), setup.time_start, setup.time_end, traj.getStartTime(), traj.getEndTime());
@@ -241,20 +281,7 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
                                                      formatSignificant(traj.getEndTime(), 6) + " s), got " +
                                                      formatSignificant(setup.time_start, 6) + " to " +
                                                      formatSignificant(setup.time_end, 6) + " s");
-  if (loads) {
-    // Within a microsecond: the analysed frames sit on OpenSim's resampled grid, which may start a
-    // rounding error before the data's first row.
-    const double a = times.front(), b = times.back(), eps = 1e-6;
-    if (b < loads->getStartTime() - eps || a > loads->getEndTime() + eps)
-      throw InputError(setup.locate(setup.plates_c3d_file.empty() ? "external_loads_file" : "ForcePlates"),
-                       "expected force data overlapping the analysed times " + formatSignificant(a, 6) + " to " +
-                           formatSignificant(b, 6) + " s, got " + formatSignificant(loads->getStartTime(), 6) + " to " +
-                           formatSignificant(loads->getEndTime(), 6) + " s in " + loads->getSpec().datafile);
-    if (a < loads->getStartTime() - eps || b > loads->getEndTime() + eps)
-      report.warnings.push_back("the force data (" + formatSignificant(loads->getStartTime(), 6) + " to " +
-                                formatSignificant(loads->getEndTime(), 6) +
-                                " s) do not cover every analysed frame: their splines are extrapolated there");
-  }
+  if (loads) checkLoadTimes(setup, *loads, times, report);
   std::vector<JointLoadRequest> joints = resolveJointLoads(setup, *model);
   const size_t n_requested = joints.size();
   if (!setup.knee_joint.empty()) {
@@ -278,17 +305,7 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
   out.addContents(setup.output_gen_force_file, io::formatStorage(report.generalized_forces));
   if (plates) {
     stageGroundReactions(*plates, setup.output_grf_file, fs::path(setup.output_grf_file).replace_extension(".xml").string(), out);
-    for (const PlateAssignment& a : plates->assignments)
-      report.notes.push_back("force plate " + std::to_string(a.plate + 1) + " loaded " + formatSignificant(a.start, 4) + "-" +
-                             formatSignificant(a.end, 4) + " s: foot '" + a.foot + "' (its markers " +
-                             formatSignificant(1e3 * a.distance_m, 3) + " mm from the centre of pressure)");
-    for (const PlateAssignment& a : plates->assignments)
-      if (a.distance_m > 0.2)
-        report.warnings.push_back("force plate " + std::to_string(a.plate + 1) + " at " + formatSignificant(a.start, 4) +
-                                  "-" + formatSignificant(a.end, 4) + " s: the nearest foot's markers are " +
-                                  formatSignificant(1e3 * a.distance_m, 3) +
-                                  " mm from the centre of pressure (both feet on the plate?); all of it went to foot '" +
-                                  a.foot + "'");
+    reportAssignments(*plates, report);
   }
   if (n_requested > 0) {
     const std::vector<JointLoadRequest> requested(joints.begin(), joints.begin() + long(n_requested));
