@@ -68,6 +68,11 @@ struct Joint {
   Pose X_BM = Pose::Identity();  ///< Joint frame M on the child body B.
   /// OpenSim's `reverse`: the joint's transform describes the parent relative to the child.
   bool reverse = false;
+  /// The file names this joint's bodies the other way round: its child body was already another
+  /// joint's child, so OpenSim's multibody graph uses the joint from that body (Simbody's Reverse
+  /// mobilizer) and the coordinates keep the file's parent-to-child sense. parent_body and X_PF
+  /// here are the file's child body and child frame; child_body and X_BM the file's parent ones.
+  bool reversed_in_tree = false;
   std::vector<int> coordinates;      ///< Model coordinate indices, in the joint's own order.
   std::array<TransformAxis, 6> spatial;  ///< Used by JointType::Custom only.
   /// Ellipsoid: the semi-axes along F's x, y, z. Scapulothoracic: OpenSim's

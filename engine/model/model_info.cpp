@@ -76,7 +76,7 @@ void printModelInfo(const Model& m, std::ostream& os) {
     for (int c : j.coordinates) coords.push_back(m.coordinates[c].name);
     os << "  " << std::left << std::setw(24) << j.name << std::right << " " << getJointTypeName(j.type) << " "
        << m.bodies[j.parent_body].name << " -> " << m.bodies[j.child_body].name
-       << (j.reverse ? " (reverse)" : "") << (coords.empty() ? "" : ": " + join(coords, ", ")) << "\n";
+       << (j.reverse ? " (reverse)" : "") << (j.reversed_in_tree ? " (the file's child -> parent)" : "") << (coords.empty() ? "" : ": " + join(coords, ", ")) << "\n";
   }
 
   os << plural(m.coordinates.size(), "coordinate") << " (rotational in degrees, translational in m):\n";

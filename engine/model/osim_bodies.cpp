@@ -132,12 +132,23 @@ void OsimReader::readMeshes4(const Node& frame, const std::string& owner_path, i
   for (const Node& g : frame.child("attached_geometry").children("Mesh")) {
     int b = body;
     Pose X = X_BF;
-    if (Node sf = g.child("socket_frame"); sf && !sf.text().empty() && sf.text() != "..") {
+    if (Node sf = findSocket(g, {"frame"}); sf && !sf.text().empty() && sf.text() != "..") {
       const auto r = resolveFrame(sf.text(), owner_path + "/" + g.nameAttr(), sf);
       b = r.first;
       X = r.second;
     }
     addMesh(b, g, g.childText("mesh_file"), g.childVec3("scale_factors", Vec3::Ones()), X);
+  }
+}
+
+void OsimReader::readFrameWrapObjects() {
+  for (auto& kv : frames_) {
+    OffsetFrame& f = kv.second;
+    if (f.kind != OffsetFrame::Kind::Offset || !f.node.child("WrapObjectSet")) continue;
+    const auto r = resolveEntry(FrameEntry{-1, kv.first}, f.node);
+    const size_t first = m_->wrap_objects.size();
+    readWrapObjects(f.node, r.first);
+    for (size_t k = first; k < m_->wrap_objects.size(); ++k) m_->wrap_objects[k].X_BW = r.second * m_->wrap_objects[k].X_BW;
   }
 }
 

@@ -35,8 +35,18 @@ void OsimReader::readConstraints(const Node& model_el) {
   std::vector<std::pair<Node, std::string>> items;  // element, component path
   for (const Node& c : model_el.child("ConstraintSet").child("objects").children())
     items.emplace_back(c, "/constraintset/" + c.nameAttr());
-  for (const Node& c : model_el.child("components").children())
-    if (c.name() == "CoordinateCouplerConstraint" || isBodyConstraint(c.name())) items.emplace_back(c, "/" + c.nameAttr());
+  // The model's <components>, and those of its ground, bodies and joints: OpenSim adds every
+  // constraint component to the system, whoever owns it.
+  auto owned = [&](const Node& owner, const std::string& owner_path) {
+    for (const Node& c : owner.child("components").children())
+      if (c.name() == "CoordinateCouplerConstraint" || isBodyConstraint(c.name()))
+        items.emplace_back(c, owner_path + "/" + c.nameAttr());
+  };
+  owned(model_el, "");
+  if (Node g = model_el.child("Ground")) owned(g, "/ground");
+  for (const auto& [p, b] : body_paths_)
+    if (b > 0) owned(body_nodes_[b], p);
+  for (const JointElement& je : joint_elements_) owned(je.node, je.path);
   for (const auto& [c, path] : items) {
     const std::string tag = c.name();
     if (tag != "CoordinateCouplerConstraint" && !isBodyConstraint(tag)) {

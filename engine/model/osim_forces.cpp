@@ -31,12 +31,12 @@ std::string lastPathPart(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-/// The text naming a connected component: a 3.x child <tag3>, a 4.x <socket_name>, or a 3.3
-/// <connectors> entry named @p name.
+/// The text naming a connected component: a 3.x child <tag3>, a 4.x <socket_name> (30508-30516:
+/// <socket_name_connectee_name>), or a 3.3 <connectors> entry named @p name.
 std::pair<Node, std::string> findReference(const Node& el, const char* tag3, const std::string& name) {
   if (Node n = el.child(tag3); n && !n.text().empty()) return {n, n.text()};
-  const std::string socket = "socket_" + name;
-  if (Node n = el.child(socket.c_str()); n && !n.text().empty()) return {n, n.text()};
+  for (const std::string& socket : {"socket_" + name, "socket_" + name + "_connectee_name"})
+    if (Node n = el.child(socket.c_str()); n && !n.text().empty()) return {n, n.text()};
   for (const Node& c : el.child("connectors").children())
     if (c.nameAttr() == name)
       if (Node n = c.child("connectee_name"); n && !n.text().empty()) return {n, n.text()};

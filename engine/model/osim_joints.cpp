@@ -421,15 +421,38 @@ void OsimReader::readCustomJoint(const Node& j, Joint& jt, int ji, std::vector<P
   }
 }
 
-/// Every body but ground must be the child of exactly one joint; say where, with a line.
+/// Every body but ground must be the child of exactly one joint; say where, with a line. A joint
+/// whose child is already another joint's child, from a body no joint has as child, is used from
+/// its child as OpenSim's multibody graph does (Joint::reversed_in_tree).
 void OsimReader::checkTree() {
-  std::vector<int> parent_joint(m_->bodies.size(), -1);
+  std::vector<int> parent_joint(m_->bodies.size(), -1), child_count(m_->bodies.size(), 0);
+  for (const Joint& jt : m_->joints) ++child_count[jt.child_body];
+  auto reversible = [&](int j) {
+    const Joint& jt = m_->joints[j];
+    return jt.parent_body != 0 && child_count[jt.parent_body] == 0 && !jt.reverse && !jt.reversed_in_tree &&
+           jt.type != JointType::Ellipsoid && jt.type != JointType::Scapulothoracic;
+  };
+  auto reverseInTree = [&](int j) {
+    Joint& jt = m_->joints[j];
+    std::swap(jt.parent_body, jt.child_body);
+    std::swap(jt.X_PF, jt.X_BM);
+    jt.reversed_in_tree = true;
+    child_count[jt.child_body] = 1;
+    parent_joint[jt.child_body] = j;
+  };
   for (size_t j = 0; j < m_->joints.size(); ++j) {
     const int c = m_->joints[j].child_body;
-    if (parent_joint[c] >= 0)
+    if (parent_joint[c] < 0) {
+      parent_joint[c] = int(j);
+    } else if (reversible(int(j))) {
+      reverseInTree(int(j));
+    } else if (const int k = parent_joint[c]; reversible(k)) {
+      parent_joint[c] = int(j);
+      reverseInTree(k);
+    } else {
       joint_nodes_[j].fail("body '" + m_->bodies[c].name + "' is already the child of joint '" +
                            m_->joints[parent_joint[c]].name + "'; closed loops are not supported");
-    parent_joint[c] = int(j);
+    }
   }
   for (size_t b = 1; b < m_->bodies.size(); ++b)
     if (parent_joint[b] < 0)

@@ -114,6 +114,8 @@ Node findSocket(const Node& owner, std::initializer_list<const char*> names) {
   for (const char* name : names) {
     const std::string n(name);
     if (Node s = owner.child(("socket_" + n).c_str())) return s;
+    // 30508-30516 wrote socket_<name>_connectee_name (OpenSim renames it to socket_<name>).
+    if (Node s = owner.child(("socket_" + n + "_connectee_name").c_str())) return s;
     if (Node s = owner.child(("connector_" + n + "_connectee_name").c_str())) return s;
     for (const Node& c : owner.child("connectors").children())
       if (c.nameAttr() == n) return c.requireChild("connectee_name");

@@ -62,6 +62,7 @@ std::shared_ptr<Model> OsimReader::read() {
     registerFrames(model_el);
     readJointSet(model_el);
     attachMeshes4();
+    readFrameWrapObjects();
   } else {
     for (const auto& pj : pending_joints_) readJoint(pj.first, pj.second, /*v4=*/false);
   }

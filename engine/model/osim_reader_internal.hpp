@@ -133,6 +133,8 @@ class OsimReader {
   int addBody(const Node& b, const std::string& path);
   Mat3 readInertia(const Node& b);
   void readWrapObjects(const Node& b, int body);
+  /// OpenSim 4.x: the WrapObjectSets of PhysicalOffsetFrames, fixed on the frames' bodies.
+  void readFrameWrapObjects();
   void addMesh(int body, const Node& where, const std::string& file, const Vec3& scale, const Pose& X_BG);
   void readMeshes3(const Node& b, int body);
   void readMeshes4(const Node& frame, const std::string& owner_path, int body, const Pose& X_BF);

@@ -281,8 +281,11 @@ class Writer {
     for (int ji : calcFileOrder()) {
       const Joint& j = m_.joints[ji];
       const std::string tag = getJointTypeName(j.type);
-      const std::string parent_frame = m_.bodies[j.parent_body].name + "_offset";
-      const std::string child_frame = m_.bodies[j.child_body].name + "_offset";
+      // A joint the tree uses from its child is written as the file had it, parent first.
+      const bool swap = j.reversed_in_tree;
+      const int parent_body = swap ? j.child_body : j.parent_body, child_body = swap ? j.parent_body : j.child_body;
+      const std::string parent_frame = m_.bodies[parent_body].name + "_offset";
+      const std::string child_frame = m_.bodies[child_body].name + "_offset";
       line(4, "<" + tag + " name=\"" + xml::escape(j.name) + "\">");
       element(5, "socket_parent_frame", xml::escape(parent_frame));
       element(5, "socket_child_frame", xml::escape(child_frame));
@@ -295,8 +298,8 @@ class Writer {
       }
       if (j.reverse) element(5, "reverse", "true");
       line(5, "<frames>");
-      writeOffsetFrame(6, parent_frame, bodyPath(j.parent_body), j.X_PF);
-      writeOffsetFrame(6, child_frame, bodyPath(j.child_body), j.X_BM);
+      writeOffsetFrame(6, parent_frame, bodyPath(parent_body), swap ? j.X_BM : j.X_PF);
+      writeOffsetFrame(6, child_frame, bodyPath(child_body), swap ? j.X_PF : j.X_BM);
       line(5, "</frames>");
       if (j.type == JointType::Custom) {
         line(5, "<SpatialTransform>");

@@ -570,7 +570,7 @@ class UrdfWriter {
     std::vector<Step> steps = stepsOf(jt);
     // OpenSim 3.x reverse joints: the transform maps child to parent (see sim/system.cpp), so the
     // chain is the inverse: steps in reverse order, each inverted.
-    const bool reversed = jt.reverse && m_.format_version > 0 && m_.format_version < 40000;
+    const bool reversed = (jt.reverse && m_.format_version > 0 && m_.format_version < 40000) || jt.reversed_in_tree;
     if (reversed) {
       std::reverse(steps.begin(), steps.end());
       for (Step& s : steps) {

@@ -398,8 +398,9 @@ void addJoints(const model::Model& m, const SystemOptions& options, SimbodyTree&
     const SimTK::Body::Rigid body(massProperties(m.bodies[jt.child_body], warnings));
     // In OpenSim 3.x files `reverse` means the joint transform maps child to parent (Simbody's
     // Reverse mobilizer, as OpenSim 3.3 built it). OpenSim 4 keeps the joint's meaning and only
-    // flips the tree, which for a parent-first tree is the forward mobilizer.
-    const bool reversed = jt.reverse && m.format_version > 0 && m.format_version < 40000;
+    // flips the tree, which for a parent-first tree is the forward mobilizer (and the Reverse one
+    // for a joint the tree uses from its child, reversed_in_tree).
+    const bool reversed = (jt.reverse && m.format_version > 0 && m.format_version < 40000) || jt.reversed_in_tree;
     const JointFrames f{d.matter.updMobilizedBody(d.mobod[jt.parent_body]), body, toSimTK(jt.X_PF),
                         toSimTK(jt.X_BM), reversed,
                         reversed ? SimTK::MobilizedBody::Reverse : SimTK::MobilizedBody::Forward};

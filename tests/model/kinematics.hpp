@@ -93,7 +93,7 @@ inline Pose jointMotion(const model::Model& m, const model::Joint& jt, const std
       break;
     }
   }
-  if (jt.reverse && m.format_version > 0 && m.format_version < 40000) X = X.inverse();
+  if ((jt.reverse && m.format_version > 0 && m.format_version < 40000) || jt.reversed_in_tree) X = X.inverse();
   return X;
 }
 

@@ -75,5 +75,31 @@ TEST(OsimFrames, StationDefinedFrameAsOpenSimBuildsIt) {
             std::string::npos);
 }
 
+// dennis_hopper (format 30512): sockets written socket_<name>_connectee_name, a WrapCylinder in
+// the WrapObjectSet of a PhysicalOffsetFrame (fixed on the frame's body at the frame's pose), a
+// PointOnLineConstraint among a body's <components> (OpenSim enforces it wherever it is owned) and
+// the knee written from the shank to the thigh (used from the thigh, as OpenSim does).
+TEST(OsimFrames, HopperOf30512) {
+  const ModelPtr m = readOsim(sourcePath("tests/model/corpus/dennis_hopper_30512.osim"));
+  EXPECT_EQ(m->format_version, 30512);
+  ASSERT_EQ(m->wrap_objects.size(), 1u);
+  const WrapObject& w = m->wrap_objects[0];
+  EXPECT_EQ(w.name, "patella");
+  EXPECT_EQ(m->bodies[w.body].name, "thigh");
+  EXPECT_LT((w.X_BW.translation() - Vec3(0, -0.25, 0)).norm(), 1e-15);
+  ASSERT_EQ(m->constraints.size(), 1u);
+  const Constraint& k = m->constraints[0];
+  EXPECT_EQ(k.type, ConstraintType::PointOnLine);
+  EXPECT_EQ(k.body1, 0);
+  EXPECT_EQ(m->bodies[k.body2].name, "shank");
+  EXPECT_LT((k.X_B2F2.translation() - Vec3(0, -0.25, 0)).norm(), 1e-15);
+  const Joint& knee = m->joints[m->findJoint("knee")];
+  EXPECT_TRUE(knee.reversed_in_tree);
+  EXPECT_EQ(m->bodies[knee.parent_body].name, "thigh");
+  EXPECT_EQ(m->bodies[knee.child_body].name, "shank");
+  EXPECT_LT((knee.X_PF.translation() - Vec3(0, -0.25, 0)).norm(), 1e-15);  // the file's thigh_offset
+  EXPECT_LT((knee.X_BM.translation() - Vec3(0, 0.25, 0)).norm(), 1e-15);   // the file's shank_offset
+}
+
 }  // namespace
 }  // namespace kneesim::model

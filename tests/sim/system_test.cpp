@@ -12,6 +12,7 @@
 #include "core/error.hpp"
 #include "model/kinematics.hpp"
 #include "model/osim_reader.hpp"
+#include "model/osim_writer.hpp"
 #include "model/urdf.hpp"
 #include "support/chain_model.hpp"
 #include "support/test_data.hpp"
@@ -362,6 +363,60 @@ TEST(System, ScapulothoracicAndEllipsoidJointsMatchOpenSimsDefinition) {
       EXPECT_LT((S.linear() - X[b].linear()).norm(), 1e-12) << m.bodies[b].name;
     }
     expectJacobianMatchesDifferences(sys, qe);
+  }
+}
+
+// A joint whose child is already another joint's child, from a body no joint has as child
+// (dennis_hopper's knee: parent shank, child thigh, the hip's child): OpenSim's multibody graph
+// uses it from the thigh, as Simbody's Reverse mobilizer, and its coordinate keeps the file's
+// sense: X_{b_offset a_offset} = Rz(qb). By hand, b's origin is Rz(qa) ((1,0,0) + Rz(-qb) (0,-0.5,0)).
+TEST(System, JointWrittenChildToParentIsUsedFromItsChild) {
+  auto pin = [](const std::string& name, const std::string& parent, const std::string& child,
+                const std::string& frames, const std::string& q) {
+    return "<PinJoint name=\"" + name + "\"><socket_parent_frame>" + parent + "</socket_parent_frame>"
+           "<socket_child_frame>" + child + "</socket_child_frame><coordinates><Coordinate name=\"" + q +
+           "\"/></coordinates><frames>" + frames + "</frames></PinJoint>\n";
+  };
+  auto frame = [](const std::string& name, const std::string& parent, const std::string& t) {
+    return "<PhysicalOffsetFrame name=\"" + name + "\"><socket_parent>" + parent + "</socket_parent><translation>" +
+           t + "</translation></PhysicalOffsetFrame>";
+  };
+  auto body = [](const std::string& name) {
+    return "<Body name=\"" + name + "\"><mass>1</mass><inertia>1 1 1 0 0 0</inertia></Body>\n";
+  };
+  const std::string text =
+      "<OpenSimDocument Version=\"40000\"><Model name=\"m\"><BodySet><objects>\n" + body("a") + body("b") +
+      "</objects></BodySet><JointSet><objects>\n" + pin("ja", "/ground", "/bodyset/a", "", "qa") +
+      pin("jb", "b_offset", "a_offset",
+          frame("b_offset", "/bodyset/b", "0 0.5 0") + frame("a_offset", "/bodyset/a", "1 0 0"), "qb") +
+      "</objects></JointSet></Model></OpenSimDocument>\n";
+  model::ModelPtr mp = model::parseOsim(text, "reversed.osim");
+  for (int pass = 0; pass < 2; ++pass) {  // as read, then written and read again
+    const model::Model& m = *mp;
+    const model::Joint& jb = m.joints[m.findJoint("jb")];
+    EXPECT_TRUE(jb.reversed_in_tree);
+    EXPECT_EQ(m.bodies[jb.parent_body].name, "a");
+    EXPECT_EQ(m.bodies[jb.child_body].name, "b");
+    System sys(mp);
+    auto ws = sys.createWorkspace();
+    const int b = m.findBody("b");
+    const std::vector<std::array<double, 3>> cases = {
+        {0, 0, 0}, {0, M_PI / 2, 0}, {M_PI / 2, M_PI / 2, 0}, {0.3, -0.7, 0}};
+    for (const auto& c : cases) {
+      const double qa = c[0], qb = c[1];
+      sys.realizePosition(*ws, coordinates(m, {{"qa", qa}, {"qb", qb}}));
+      const Vec3 inner = Vec3(1, 0, 0) + Vec3(0.5 * std::sin(-qb), -0.5 * std::cos(-qb), 0);  // Rz(-qb) (0,-0.5,0)
+      const Vec3 want(inner.x() * std::cos(qa) - inner.y() * std::sin(qa),
+                      inner.x() * std::sin(qa) + inner.y() * std::cos(qa), 0);
+      const Vec3 got = sys.findStationLocation(*ws, b, Vec3::Zero());
+      EXPECT_LT((got - want).norm(), 1e-12) << "pass " << pass << " qa " << qa << " qb " << qb << ": " << got.transpose();
+      // The tests' plain forward kinematics agree.
+      const auto X_G = test::bodyPoses(m, test::coordinateValues(m, {{"qa", qa}, {"qb", qb}}));
+      EXPECT_LT((X_G[b].translation() - want).norm(), 1e-12);
+    }
+    const std::string written = model::formatOsim(m);
+    EXPECT_NE(written.find("<socket_parent_frame>b_offset</socket_parent_frame>"), std::string::npos) << written;
+    mp = model::parseOsim(written, "reversed_written.osim");
   }
 }
 
