@@ -41,7 +41,8 @@ end=$(date +%s)
 results="$job/paper/models/jw-knee24/results/paper_workflow"
 echo "== the paper's workflow took $((end - start)) s; results in $results/"
 echo "   summary.json (identified K and E at the assumed nu, errors per trial and phase, contact areas),"
-echo "   plots/*.png (Figures 6-9), <trial>/ (IK motion, contact area, measured and predicted force),"
+echo "   plots/*.png (Figures 6-9; fig11: the knee force from muscle forces, MuscleChain), <trial>/ (IK motion,"
+echo "   contact area, measured and predicted force, static optimization and the knee reaction),"
 echo "   gap/jw_gap/ and gap/jw_gap_c3d/ (gap_report.md, gap_report.json and plots of the gap diagnosis)"
 
 # 2. OpenSim's IK regression case (about a second).

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <iomanip>
+#include <tuple>
 
 #include "model/osim_reader.hpp"
 #include "model/urdf.hpp"
@@ -46,6 +47,25 @@ void readModel(const WorkflowSetup& setup, WorkflowInputs& in) {
   in.flex_rot = in.model->coordinates[size_t(flex_coord)].motion_type == model::MotionType::Rotational;
 }
 
+// The musculoskeletal estimate's errors over the trial and window, and the reserves that carry load.
+void printMuscleLoads(const TrialMuscleLoads& m, std::ostream& os) {
+  for (const ChainPhase& p : m.phases) {
+    if (p.name != "trial" && p.name != "window") continue;
+    os << "      muscles, " << p.name << ":";
+    for (const auto& [side, fm, r] : {std::tuple{"total", &p.total, p.r_total}, std::tuple{"medial", &p.medial, p.r_medial},
+                                      std::tuple{"lateral", &p.lateral, p.r_lateral}})
+      os << " " << side << " RMSE " << std::setprecision(0) << fm->rmse << " N (" << std::setprecision(2) << fm->rmse_bw
+         << " BW), R^2 " << fm->r2 << ", r " << r << ";";
+    os << "\n";
+  }
+  for (const ChainReserve& r : m.reserves)
+    if (!r.residual && r.frames_loaded > 0)
+      os << "      reserve " << r.name << " carries load in " << r.frames_loaded << " frames (peak " << std::setprecision(1)
+         << r.peak << " at " << std::setprecision(3) << r.time_of_peak << " s)\n";
+  if (m.short_frames > 0) os << "      " << m.short_frames << " frames short of inverse dynamics\n";
+  for (size_t i = 0; i < m.warnings.size() && i < 5; ++i) os << "      warning: " << m.warnings[i] << "\n";
+}
+
 }  // namespace
 
 WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options) {
@@ -64,6 +84,11 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
       identify::ContactLaw::fromRegistry(in.registry, setup.law, {setup.setup_file, 0, "ContactLaw/name"});
   report.law_description = law.getDescription();
   readModel(setup, in);
+  if (setup.muscles.on) {
+    in.muscle_chain = buildMuscleChainModel(setup.muscles, in.model);
+    report.muscles_adopted = in.muscle_chain.adopted;
+    report.muscles_left_out = in.muscle_chain.left_out;
+  }
 
   AtomicFileSet outputs;
   std::vector<TrialState> states;
@@ -82,6 +107,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
 
   // ---- identification on the training trials, predictions, refits at the other thresholds
   identifyAndPredict(setup, law, states, report, progress);
+  for (TrialState& st : states) compareTrialMuscleLoads(setup, st);
 
   // ---- per-trial outputs, plots (the paper's Figures 6-9), summary.json
   addTrialOutputs(setup, in, law, states, outputs);
@@ -135,6 +161,7 @@ void printWorkflowSummary(const WorkflowReport& r, std::ostream& os) {
         os << "      net " << a.load.substr(5) << " vs measured total: r " << std::setprecision(3) << a.r_trial
            << " (window " << a.r_window << "), best lag " << std::setprecision(0) << 1e3 * a.lag << " ms (r "
            << std::setprecision(3) << a.r_at_lag << ")\n";
+    printMuscleLoads(t.muscle_loads, os);
     for (const PhaseError& e : t.phases)
       os << "      " << std::left << std::setw(20) << e.name << std::right << " RMSE " << std::setw(7)
          << std::setprecision(1) << e.metrics.rmse << " N, bias " << std::setw(7) << e.metrics.bias

@@ -33,6 +33,7 @@
 #include "tool/contact_area_tool.hpp"
 #include "tool/run.hpp"
 #include "tool/workflow_knee_loads.hpp"
+#include "tool/workflow_muscles.hpp"
 
 namespace kneesim::tool {
 
@@ -101,6 +102,9 @@ struct WorkflowSetup {
   /// <results_directory>/gap/<GapTool name>/.
   std::vector<std::string> gap_setup_files;
   std::vector<WorkflowTrialSpec> trials;
+  /// <MuscleChain>: the knee contact force from muscle forces on every trial with an
+  /// id_setup_file (tool/workflow_muscles.hpp).
+  MuscleChainSetup muscles;
   std::vector<std::string> law_plugins{"hertz"};  ///< Plugins registering the law.
   std::string law = "hertz";
   identify::FitOptions fit;  ///< Free parameters, values, bounds, assumed values, intervals.
@@ -160,6 +164,8 @@ struct WorkflowTrialResult {
   double cycle_agreement = std::numeric_limits<double>::quiet_NaN();   ///< Fraction of cycle frames.
   double ik_mean_rms = std::numeric_limits<double>::quiet_NaN();      ///< m, when IK ran.
   TrialKneeLoads knee_loads;  ///< When the trial has an id_setup_file (else an empty table).
+  /// The musculoskeletal knee force (MuscleChain on and an id_setup_file; else total is empty).
+  TrialMuscleLoads muscle_loads;
   /// The goniometer calibration used (Source::goniometer) and whether the trial's GON was in volts.
   io::GoniometerCalibration goniometer;
   bool goniometer_in_volts = false;
@@ -190,6 +196,8 @@ struct WorkflowReport {
   std::string plots_problem;  ///< Why plots were not drawn ("" if they were or were not asked for).
   /// The gap diagnoses run after the workflow (WorkflowSetup::gap_setup_files).
   std::vector<std::shared_ptr<const gap::GapRunResult>> gap;
+  /// The MuscleChain's muscles: adopted, and left out with the reason.
+  std::vector<std::string> muscles_adopted, muscles_left_out;
   double seconds_total = 0, seconds_fit = 0, seconds_plots = 0, seconds_gap = 0;
 };
 

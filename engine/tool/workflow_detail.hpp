@@ -71,6 +71,7 @@ struct WorkflowInputs {
   std::vector<std::unique_ptr<contact::ContactAreaWorkspace>> derivative_wss;
   model::ModelPtr model;
   bool flex_rot = false;  // the flexion coordinate is rotational
+  MuscleChainModel muscle_chain;  // built when the setup's MuscleChain is on
 };
 
 // ---- per trial (workflow_trials.cpp)
@@ -79,6 +80,8 @@ struct WorkflowInputs {
 // derivatives) and the identification's view of the trial.
 void processTrial(const WorkflowSetup& setup, WorkflowInputs& in, std::vector<TrialState>& states, size_t oi,
                   WorkflowReport& report, AtomicFileSet& outputs, const Progress& progress);
+// The musculoskeletal estimate's errors per phase (after identifyAndPredict made the phases).
+void compareTrialMuscleLoads(const WorkflowSetup& setup, TrialState& st);
 // The results folder of a trial.
 std::string trialDirectory(const WorkflowSetup& setup, const std::string& trial);
 

@@ -68,6 +68,12 @@ io::Storage forceStorage(const identify::ContactLaw& law, bool per_compartment, 
     f.labels.push_back("predicted_lateral");
   }
   for (const auto& c : r.knee_loads.at_frames) f.labels.push_back(c.first);
+  const bool muscles = !r.muscle_loads.total.empty();
+  if (muscles) {
+    for (const char* c : {"muscle_total", "muscle_medial", "muscle_lateral"}) f.labels.push_back(c);
+    f.header.emplace_back("muscle", "the compressive knee force from static optimization and the joint reaction "
+                                    "(MuscleChain; N), split by the frontal moment about the contact centroids");
+  }
   if (!r.knee_loads.at_frames.empty())
     f.header.emplace_back("knee_loads", "the knee's net loads from inverse dynamics (" + r.knee_loads.id_setup_file +
                                             "; N and N m, no muscles), at these frames");
@@ -101,6 +107,7 @@ io::Storage forceStorage(const identify::ContactLaw& law, bool per_compartment, 
       row.push_back(r.predicted_lateral[i]);
     }
     for (const auto& c : r.knee_loads.at_frames) row.push_back(c.second[i]);
+    if (muscles) row.insert(row.end(), {r.muscle_loads.total[i], r.muscle_loads.medial[i], r.muscle_loads.lateral[i]});
     for (size_t c = 0; c < row.size(); ++c) f.data(Eigen::Index(i), Eigen::Index(c)) = row[c];
   }
   return f;
@@ -227,6 +234,7 @@ json trialJson(const WorkflowSetup& setup, bool flex_rot, const TrialState& st) 
                                    {"source", g.source}, {"r", jsonNumber(g.r)}, {"rms_deg", jsonNumber(g.rms_deg)}, {"frames", g.frames}};
   }
   if (!r.knee_loads.at_frames.empty()) j["knee_loads"] = toJson(r.knee_loads, setup.timings);
+  if (!r.muscle_loads.total.empty()) j["muscle_chain"] = toJson(r.muscle_loads, setup.timings);
   if (setup.timings) j["seconds"] = {{"ik", r.seconds_ik}, {"kinematics", r.seconds_kinematics}, {"contact_area", r.seconds_area}};
   return j;
 }
@@ -243,6 +251,12 @@ void addTrialOutputs(const WorkflowSetup& setup, const WorkflowInputs& in, const
                         io::formatStorage(contactAreaStorage(setup, in, r)));
     outputs.addContents((fs::path(dir) / (r.name + "_forces.sto")).string(),
                         io::formatStorage(forceStorage(law, per_compartment, st)));
+    if (!r.muscle_loads.total.empty()) {
+      const fs::path base = fs::path(dir) / (r.name + "_muscle");
+      outputs.addContents(base.string() + "_activation.sto", io::formatStorage(r.muscle_loads.activations));
+      outputs.addContents(base.string() + "_force.sto", io::formatStorage(r.muscle_loads.forces));
+      outputs.addContents(base.string() + "_knee_reaction.sto", io::formatStorage(r.muscle_loads.reaction));
+    }
   }
 }
 
@@ -270,6 +284,13 @@ json makeSummary(const WorkflowSetup& setup, const WorkflowInputs& in, const ide
   json trials = json::array();
   for (const TrialState& st : states) trials.push_back(trialJson(setup, in.flex_rot, st));
   sj["trials"] = trials;
+  if (setup.muscles.on)
+    sj["muscle_chain"] = {{"muscle_model_file", setup.muscles.muscle_model_file},
+                          {"activation_exponent", setup.muscles.so.activation_exponent},
+                          {"force_set_files", setup.muscles.force_set_files},
+                          {"reserve_threshold", setup.muscles.reserve_threshold},
+                          {"muscles", report.muscles_adopted},
+                          {"left_out", report.muscles_left_out}};
   sj["plots"] = plot_files;
   sj["plots_problem"] = report.plots_problem;
   sj["warnings"] = report.warnings;

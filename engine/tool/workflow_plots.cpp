@@ -148,6 +148,20 @@ Plot forcePlot(const identify::ContactLaw& law, bool per_compartment, const Tria
   return p;
 }
 
+// The musculoskeletal knee force of one trial beside the measured forces and the contact law's.
+Plot muscleLoadPlot(const WorkflowTrialResult& r, const std::string& pdir) {
+  const bool rc = r.cycle.isComplete();
+  Plot p = makeMuscleLoadPlot(r.muscle_loads, r.forces, r.trial_prediction.predicted, plotAxis(r, rc),
+                              rc ? "gait cycle (%)" : "time (s)", r.name);
+  p.file = pdir + "/fig11_muscle_knee_force_" + r.name + ".png";
+  if (rc) {
+    p.vlines.push_back({0.0, "heel strike"});
+    if (std::isfinite(r.cycle.toe_off)) p.vlines.push_back({r.cycle.getToeOffPercent(), "toe-off"});
+    p.vlines.push_back({100.0, "heel strike"});
+  }
+  return p;
+}
+
 // The knee's net loads of one trial (inverse dynamics) beside its measured forces.
 Plot kneeLoadPlot(const WorkflowTrialResult& r, const std::string& pdir) {
   const bool rc = r.cycle.isComplete();
@@ -245,6 +259,8 @@ std::vector<std::string> makeWorkflowPlots(const WorkflowSetup& setup, const Wor
   for (const TrialState& st : states) plots.push_back(forcePlot(law, per_compartment, st, pdir));
   for (const TrialState& st : states)
     if (!st.result.knee_loads.at_frames.empty()) plots.push_back(kneeLoadPlot(st.result, pdir));
+  for (const TrialState& st : states)
+    if (!st.result.muscle_loads.total.empty()) plots.push_back(muscleLoadPlot(st.result, pdir));
   for (const auto* r : other) plots.push_back(flexionAreaPlot(setup, flex_rot, thr_label, r, pdir));
   for (const TrialState& st : states) {
     if (st.spec.source != WorkflowTrialSpec::Source::goniometer || st.spec.calibrate_on.empty() || !flex_rot) continue;

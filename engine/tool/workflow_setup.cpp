@@ -171,7 +171,8 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
        "femoral_mesh", "insert_mesh", "threshold", "extra_thresholds", "area_rule", "distance_provider", "plugins",
        "kinematics", "flexion_coordinate", "seating_grid_deg", "body_mass", "Trial", "ContactLaw",
        "threshold_sensitivity", "agreement_fraction", "results_directory", "plots", "gnuplot", "plot_scripts",
-       "threads", "area_derivatives", "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file", "timings"});
+       "threads", "area_derivatives", "flexion_step_deg", "flexion_step", "ap_step", "gap_setup_file", "timings",
+       "MuscleChain"});
   WorkflowSetup s;
   s.setup_file = path;
   if (!tool.nameAttr().empty()) s.name = tool.nameAttr();
@@ -227,6 +228,7 @@ WorkflowSetup readWorkflowSetup(const std::string& path) {
     if (!(d > 0 && d <= 2e-3)) n.fail("expected an AP step in (0, 0.002] m, got " + n.text());
     s.ap_step = d;
   }
+  if (xml::Node n = tool.child("MuscleChain")) s.muscles = readMuscleChainSetup(n, dir);
   if (xml::Node n = tool.child("gap_setup_file"))
     for (const std::string& f : n.toWords()) s.gap_setup_files.push_back(xml::resolvePath(dir, f));
   s.fit.body_mass = s.body_mass;

@@ -201,6 +201,15 @@ std::vector<int> keepRecordedFrames(const TrialState& st, const io::KneeForces& 
 
 }  // namespace
 
+void compareTrialMuscleLoads(const WorkflowSetup& setup, TrialState& st) {
+  WorkflowTrialResult& r = st.result;
+  if (r.muscle_loads.total.empty()) return;
+  std::vector<std::pair<std::string, std::pair<double, double>>> phases;
+  for (const PhaseError& e : r.phases) phases.push_back({e.name, {e.begin, e.end}});
+  const identify::TimeWindow w = resolveWindow(st.spec, r.cycle);
+  compareMuscleLoads(r.muscle_loads, r.name, r.time, r.forces, w.begin, w.end, phases, setup.body_mass);
+}
+
 std::string trialDirectory(const WorkflowSetup& setup, const std::string& trial) {
   return (fs::path(setup.results_directory) / trial).string();
 }
@@ -263,6 +272,16 @@ void processTrial(const WorkflowSetup& setup, WorkflowInputs& in, std::vector<Tr
                                              keep, *in.derivative_calculator, in.derivative_wss, r.notes,
                                              [&](int d, int t) { progress("area derivatives " + spec.name, d, t); });
     r.seconds_area_derivatives = secondsSince(t0);
+  }
+
+  // ---- the knee contact force from muscle forces (static optimization, joint reaction)
+  if (setup.muscles.on && !spec.id_setup_file.empty()) {
+    progress("muscles " + spec.name, 0, 1);
+    r.muscle_loads = runTrialMuscleChain(setup.muscles, in.muscle_chain, spec.id_setup_file, st.motion,
+                                         spec.source == WorkflowTrialSpec::Source::ik ? st.motion_label : spec.motion_file,
+                                         spec.where);
+    splitMuscleLoads(r.muscle_loads, r.time, r.contact);
+    progress("muscles " + spec.name, 1, 1);
   }
 
   // ---- the identification's view
