@@ -11,27 +11,18 @@
 #include "muscle/path.hpp"
 #include "sim/system.hpp"
 #include "support/input_error.hpp"
+#include "support/jw_muscle_model.hpp"
 #include "support/test_data.hpp"
 
 using namespace kneesim;
 
 namespace {
 
-const char* kUf = "kgc4-jw/model/jw_all_body_scaled.osim";
+using test::JwModels;
 
-struct Models {
-  model::ModelPtr uf, knee;
-};
+JwModels load() { return test::loadJwModels(); }
 
-Models load() {
-  return {model::readOsim(test::bundledDataPath(kUf)), model::readOsim(test::sourcePath("models/jw-knee24/jw_knee24.osim"))};
-}
-
-muscle::AdoptedMuscles adoptJw(const Models& m) {
-  std::vector<muscle::BodyCorrespondence> map = {{"tibial_tray", "tibial_component", Eigen::Isometry3d::Identity()}};
-  map.push_back(muscle::calcDefaultPoseCorrespondence(*m.knee, *m.uf, "patella", {"test", 0, ""}));
-  return muscle::adoptMuscles(*m.knee, *m.uf, map, {"vaslat_withreallength"}, {"test", 0, ""});
-}
+muscle::AdoptedMuscles adoptJw(const JwModels& m) { return test::adoptJwMuscles(m, {"vaslat_withreallength"}); }
 
 // Every muscle's length at coordinates @p q_by_name (others at their defaults).
 std::vector<double> lengths(const model::ModelPtr& m, const std::vector<std::pair<std::string, double>>& q_by_name) {
@@ -49,8 +40,8 @@ std::vector<double> lengths(const model::ModelPtr& m, const std::vector<std::pai
 }
 
 TEST(AdoptMuscles, JwPatellaFrameIsTheKneeModelToolsButtonFrame) {
-  KNEESIM_REQUIRE_BUNDLED_DATA(kUf);
-  const Models m = load();
+  KNEESIM_REQUIRE_BUNDLED_DATA(test::kJwUfModel);
+  const JwModels m = load();
   const muscle::BodyCorrespondence c = muscle::calcDefaultPoseCorrespondence(*m.knee, *m.uf, "patella", {"test", 0, ""});
   // The knee model tool re-expressed the UF patella's mass centre in the button's frame with its
   // own transform (knee_model.cpp, X_P_patsrc, from its seating of the button): the same one.
@@ -62,8 +53,8 @@ TEST(AdoptMuscles, JwPatellaFrameIsTheKneeModelToolsButtonFrame) {
 }
 
 TEST(AdoptMuscles, JwHipAndAnkleMuscleLengthsEqualTheUfModels) {
-  KNEESIM_REQUIRE_BUNDLED_DATA(kUf);
-  const Models m = load();
+  KNEESIM_REQUIRE_BUNDLED_DATA(test::kJwUfModel);
+  const JwModels m = load();
   const muscle::AdoptedMuscles a = adoptJw(m);
   // 54 muscles: 6 trunk muscles (no torso in the knee model) and one excluded by name are left out.
   EXPECT_EQ(a.adopted.size(), 47u);
@@ -91,8 +82,8 @@ TEST(AdoptMuscles, JwHipAndAnkleMuscleLengthsEqualTheUfModels) {
 }
 
 TEST(AdoptMuscles, BadNamesAreOneLineErrors) {
-  KNEESIM_REQUIRE_BUNDLED_DATA(kUf);
-  const Models m = load();
+  KNEESIM_REQUIRE_BUNDLED_DATA(test::kJwUfModel);
+  const JwModels m = load();
   const SourceLocation where{"setup.xml", 7, "MuscleChain"};
   const std::string e1 = test::inputErrorOf([&] { muscle::adoptMuscles(*m.knee, *m.uf, {}, {"quadzilla"}, where); });
   EXPECT_NE(e1.find("setup.xml:7: MuscleChain: expected a muscle of"), std::string::npos) << e1;

@@ -1,0 +1,1 @@
+kneesim_add_benchmark(so MODULES muscle tool)
