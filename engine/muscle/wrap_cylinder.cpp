@@ -86,6 +86,80 @@ void makeSpiralPath(const Vec3& p1, const Vec3& p2, double radius, bool far_side
   }
 }
 
+// Quadrant-constrained: the tangent candidates on the active half of @p axis (the a/b pairs as
+// OpenSim pairs them); sets whether the wrap goes round the far side and the long way.
+void chooseConstrainedTangents(int axis, int sign, const Vec3& p1, const Vec3& p2, const Vec3& p11, const Vec3& p22,
+                               const Vec3& r1a, const Vec3& r1b, const Vec3& r2a, const Vec3& r2b, WrapResult& result,
+                               bool& far_side_wrap, bool& long_wrap) {
+  const Vec3 r1am = r1a - p11, r1bm = r1b - p11, r2am = r2a - p22, r2bm = r2b - p22;
+  const double alpha = std::acos(r1am.dot(r2bm) / (r1am.norm() * r2bm.norm()));
+  const double beta = std::acos(r1bm.dot(r2am) / (r1bm.norm() * r2am.norm()));
+  const bool on1a = dsign(r1a[axis]) == sign, on1b = dsign(r1b[axis]) == sign;
+  const bool on2a = dsign(r2a[axis]) == sign, on2b = dsign(r2b[axis]) == sign;
+  bool use_ab;  // r1 = r1a, r2 = r2b (else r1 = r1b, r2 = r2a)
+  if (on1a && on1b)
+    use_ab = !on2a;
+  else if (on1a != on1b)
+    use_ab = on1a;
+  else if (on2a)
+    use_ab = false;
+  else if (on2b)
+    use_ab = true;
+  else
+    use_ab = alpha > beta;
+  result.r1 = use_ab ? r1a : r1b;
+  result.r2 = use_ab ? r2b : r2a;
+  // With no candidate on the active half OpenSim always takes the far side.
+  far_side_wrap = (!on1a && !on1b && !on2a && !on2b) || (use_ab == (alpha > beta));
+  const Vec3 sum_musc = (result.r1 - p1) + (result.r2 - p2);
+  const Vec3 sum_r = (result.r1 - p11) + (result.r2 - p22);
+  if (sum_r.dot(sum_musc) < 0.0) long_wrap = true;
+}
+
+// Unconstrained: the pair of candidates whose directions from the feet agree best.
+void chooseTangents(const Vec3& p11, const Vec3& p22, const Vec3& r1a, const Vec3& r1b, const Vec3& r2a,
+                    const Vec3& r2b, WrapResult& result) {
+  const Vec3 r1am = normalized(r1a - p11), r1bm = normalized(r1b - p11);
+  const Vec3 r2am = normalized(r2a - p22), r2bm = normalized(r2b - p22);
+  const double dot1 = r1am.dot(r2am), dot2 = r1am.dot(r2bm), dot3 = r1bm.dot(r2am), dot4 = r1bm.dot(r2bm);
+  if (dot1 > dot2 && dot1 > dot3 && dot1 > dot4)
+    result.r1 = r1a, result.r2 = r2a;
+  else if (dot2 > dot3 && dot2 > dot4)
+    result.r1 = r1a, result.r2 = r2b;
+  else if (dot3 > dot4)
+    result.r1 = r1b, result.r2 = r2a;
+  else
+    result.r1 = r1b, result.r2 = r2b;
+}
+
+// Slides the tangent points along the axis into the plane through p1, p2 and the apex: the
+// cylinder's edge nearest (or, far side, farthest from) the muscle line.
+void slideIntoApexPlane(const Vec3& p1, const Vec3& p2, const Vec3& p11, const Vec3& p22, double p11_dist,
+                        double p22_dist, double radius, bool far_side_wrap, WrapResult& result) {
+  // The apex sits at the axis point under the line point that splits it in the ratio of the end
+  // points' distances.
+  const Vec3 mpt = p1 + (p11_dist / (p11_dist + p22_dist)) * (p2 - p1);
+  double t;
+  const Vec3 axispt = closestPointOnLine(mpt, kAxisPoint, kAxis, t);
+  const Vec3 plane_normal = normalized(normalized(p1 - axispt).cross(normalized(p2 - axispt)));
+  const Vec3 vert1 = normalized(kAxis.cross(plane_normal)), vert2 = normalized(plane_normal.cross(kAxis));
+  const Vec3 apex1 = axispt + radius * vert1, apex2 = axispt + radius * vert2;
+  const bool first_nearer = (mpt - apex1).squaredNorm() < (mpt - apex2).squaredNorm();
+  const Vec3 apex = (first_nearer != far_side_wrap) ? apex1 : apex2;
+
+  const Vec3 n = normalized(normalized(p1 - apex).cross(normalized(p2 - apex)));
+  const double d = -p1.dot(n);
+  Vec3 r1p, r2p;
+  if (intersectSegmentPlane(result.r1 - 10.0 * kAxis, result.r1 + 10.0 * kAxis, n, d, r1p)) {
+    const Vec3 foot = closestPointOnLine(r1p, p11, p22, t);  // OpenSim passes p22 as the direction
+    if ((foot - p22).squaredNorm() < (p11 - p22).squaredNorm()) result.r1 = r1p;
+  }
+  if (intersectSegmentPlane(result.r2 - 10.0 * kAxis, result.r2 + 10.0 * kAxis, n, d, r2p)) {
+    const Vec3 foot = closestPointOnLine(r2p, p22, p11, t);
+    if ((foot - p11).squaredNorm() < (p22 - p11).squaredNorm()) result.r2 = r2p;
+  }
+}
+
 }  // namespace
 
 WrapStatus wrapCylinder(double radius, double length, int axis, int sign, const Vec3& p1, const Vec3& p2,
@@ -123,67 +197,11 @@ WrapStatus wrapCylinder(double radius, double length, int axis, int sign, const 
       else
         return WrapStatus::NoWrap;
     }
-    const Vec3 r1am = r1a - p11, r1bm = r1b - p11, r2am = r2a - p22, r2bm = r2b - p22;
-    const double alpha = std::acos(r1am.dot(r2bm) / (r1am.norm() * r2bm.norm()));
-    const double beta = std::acos(r1bm.dot(r2am) / (r1bm.norm() * r2am.norm()));
-    // Pick the candidates on the active half; a/b pairs as OpenSim pairs them.
-    const bool on1a = dsign(r1a[axis]) == sign, on1b = dsign(r1b[axis]) == sign;
-    const bool on2a = dsign(r2a[axis]) == sign, on2b = dsign(r2b[axis]) == sign;
-    bool use_ab;  // r1 = r1a, r2 = r2b (else r1 = r1b, r2 = r2a)
-    if (on1a && on1b)
-      use_ab = !on2a;
-    else if (on1a != on1b)
-      use_ab = on1a;
-    else if (on2a)
-      use_ab = false;
-    else if (on2b)
-      use_ab = true;
-    else
-      use_ab = alpha > beta;
-    result.r1 = use_ab ? r1a : r1b;
-    result.r2 = use_ab ? r2b : r2a;
-    // With no candidate on the active half OpenSim always takes the far side.
-    far_side_wrap = (!on1a && !on1b && !on2a && !on2b) || (use_ab == (alpha > beta));
-    const Vec3 sum_musc = (result.r1 - p1) + (result.r2 - p2);
-    const Vec3 sum_r = (result.r1 - p11) + (result.r2 - p22);
-    if (sum_r.dot(sum_musc) < 0.0) long_wrap = true;
+    chooseConstrainedTangents(axis, sign, p1, p2, p11, p22, r1a, r1b, r2a, r2b, result, far_side_wrap, long_wrap);
   } else {
-    const Vec3 r1am = normalized(r1a - p11), r1bm = normalized(r1b - p11);
-    const Vec3 r2am = normalized(r2a - p22), r2bm = normalized(r2b - p22);
-    const double dot1 = r1am.dot(r2am), dot2 = r1am.dot(r2bm), dot3 = r1bm.dot(r2am), dot4 = r1bm.dot(r2bm);
-    if (dot1 > dot2 && dot1 > dot3 && dot1 > dot4)
-      result.r1 = r1a, result.r2 = r2a;
-    else if (dot2 > dot3 && dot2 > dot4)
-      result.r1 = r1a, result.r2 = r2b;
-    else if (dot3 > dot4)
-      result.r1 = r1b, result.r2 = r2a;
-    else
-      result.r1 = r1b, result.r2 = r2b;
+    chooseTangents(p11, p22, r1a, r1b, r2a, r2b, result);
   }
-
-  // The apex: the cylinder's edge nearest (or, far side, farthest from) the muscle line, at the
-  // axis point under the line point that splits it in the ratio of the end points' distances.
-  const Vec3 mpt = p1 + (p11_dist / (p11_dist + p22_dist)) * (p2 - p1);
-  double t;
-  const Vec3 axispt = closestPointOnLine(mpt, kAxisPoint, kAxis, t);
-  const Vec3 plane_normal = normalized(normalized(p1 - axispt).cross(normalized(p2 - axispt)));
-  const Vec3 vert1 = normalized(kAxis.cross(plane_normal)), vert2 = normalized(plane_normal.cross(kAxis));
-  const Vec3 apex1 = axispt + radius * vert1, apex2 = axispt + radius * vert2;
-  const bool first_nearer = (mpt - apex1).squaredNorm() < (mpt - apex2).squaredNorm();
-  const Vec3 apex = (first_nearer != far_side_wrap) ? apex1 : apex2;
-
-  // Slide r1 and r2 along the axis into the plane through p1, p2 and the apex.
-  const Vec3 n = normalized(normalized(p1 - apex).cross(normalized(p2 - apex)));
-  const double d = -p1.dot(n);
-  Vec3 r1p, r2p;
-  if (intersectSegmentPlane(result.r1 - 10.0 * kAxis, result.r1 + 10.0 * kAxis, n, d, r1p)) {
-    const Vec3 foot = closestPointOnLine(r1p, p11, p22, t);  // OpenSim passes p22 as the direction
-    if ((foot - p22).squaredNorm() < (p11 - p22).squaredNorm()) result.r1 = r1p;
-  }
-  if (intersectSegmentPlane(result.r2 - 10.0 * kAxis, result.r2 + 10.0 * kAxis, n, d, r2p)) {
-    const Vec3 foot = closestPointOnLine(r2p, p22, p11, t);
-    if ((foot - p11).squaredNorm() < (p22 - p11).squaredNorm()) result.r2 = r2p;
-  }
+  slideIntoApexPlane(p1, p2, p11, p22, p11_dist, p22_dist, radius, far_side_wrap, result);
 
   // No wrap when both tangent points lie beyond the cylinder's ends.
   const double half = length / 2.0;

@@ -237,32 +237,18 @@ SurfacePath calcDistanceOnEllipsoid(const Vec3& r1, const Vec3& r2, const Vec3& 
   return out;
 }
 
-}  // namespace
+/// The surface point c1 the wrapping plane passes through (with p1 and p2), as OpenSim's
+/// WrapEllipsoid finds it from the chord r1-r2 of the line p1-p2 inside the ellipsoid: Frans van
+/// der Helm's axis technique, the "fan" of closest points, or the midpoint, blended by @p method.
+struct PlanePoint {
+  Vec3 c1;
+  bool fan_used = false;
+  double fan_weight = 0.0;
+  double t_best = NAN;  ///< Where the axis technique's line point lies on r1-r2 (0..1 inside).
+};
 
-WrapStatus wrapEllipsoid(const Vec3& radii, WrapMethod method, int axis, int sign, const Vec3& point1,
-                         const Vec3& point2, WrapResult& result) {
-  // Scale so that the radii average 1 (the factor depends on the radii only).
-  const double factor = 3.0 / radii.sum();
-  const Vec3 p1 = point1 * factor, p2 = point2 * factor, a = radii * factor;
-  const double p1e = p1.cwiseQuotient(a).squaredNorm() - 1.0;
-  const double p2e = p2.cwiseQuotient(a).squaredNorm() - 1.0;
-  if (p1e < -0.0001 || p2e < -0.0001) return WrapStatus::InsideRadius;
-
-  const Vec3 p1p2 = p1 - p2;
-  const double ppm = normalized(p1).dot(normalized(p2)) - 1.0;  // angle between the end points seen from the centre
-  if (std::abs(ppm) < 0.0001) return WrapStatus::NoWrap;
-
-  // Does the line p1-p2 cross the ellipsoid between the two points?
-  const Vec3 f1 = p1p2.cwiseQuotient(a), f2 = p2.cwiseQuotient(a);
-  const double aa = f1.dot(f1), bb = 2.0 * f1.dot(f2), cc = f2.dot(f2) - 1.0;
-  const double disc = bb * bb - 4.0 * aa * cc;
-  if (disc < 0.0) return WrapStatus::NoWrap;
-  const double l1 = (-bb + std::sqrt(disc)) / (2.0 * aa), l2 = (-bb - std::sqrt(disc)) / (2.0 * aa);
-  if (!(0.0 < l1 && l1 < 1.0) || !(0.0 < l2 && l2 < 1.0)) return WrapStatus::NoWrap;
-  Vec3 r1 = p2 + l1 * p1p2, r2 = p2 + l2 * p1p2;
-
-  // ---- the wrapping plane: a surface point c1 and the line point sv it was found from
-  const Vec3 r1r2 = r2 - r1;
+PlanePoint findPlanePoint(const Vec3& r1, const Vec3& r1r2, const Vec3& p1p2, const Vec3& a, const Vec3& radii,
+                          WrapMethod method) {
   Vec3 mu = normalized(p1p2).cwiseAbs();
   Vec3 t;
   Vec3 t_sv[3], t_c1[3];
@@ -274,9 +260,9 @@ WrapStatus wrapEllipsoid(const Vec3& radii, WrapMethod method, int axis, int sig
   int best = 0;
   for (int i = 1; i < 3; ++i)
     if (mu[i] > mu[best]) best = i;
+  PlanePoint out;
+  out.t_best = t[best];
   Vec3 c1 = Vec3::Constant(NAN), sv = Vec3::Constant(NAN);
-  bool fan_used = false;
-  double fan_weight = 0.0;
   if (method == WrapMethod::Hybrid || method == WrapMethod::Axial) {
     if (method == WrapMethod::Hybrid && mu[best] > kMuBlendMin) {
       // Fade the axis technique out when its sv falls near or beyond the ends of r1-r2.
@@ -302,44 +288,78 @@ WrapStatus wrapEllipsoid(const Vec3& radii, WrapMethod method, int axis, int sig
         v_sum += normalized(findClosestPoint(a, sample, radii) - sample);
       }
       const Vec3 c_fan = mid + normalized(v_sum);
-      fan_used = true;
+      out.fan_used = true;
       if (mu[best] <= kMuBlendMin) {
         c1 = findClosestPoint(a, c_fan, radii);
         sv = mid;
-        fan_weight = 1.0;
+        out.fan_weight = 1.0;
       } else {
         const double tt = (mu[best] - kMuBlendMin) / (kMuBlendMax - kMuBlendMin);
         const Vec3 c_fan_surface = findClosestPoint(a, c_fan, radii);
         const Vec3 blend = tt * c1 + (1.0 - tt) * c_fan_surface;
         sv = tt * sv + (1.0 - tt) * mid;
         c1 = findClosestPoint(a, blend, radii);
-        fan_weight = 1.0 - tt;
+        out.fan_weight = 1.0 - tt;
       }
     }
   } else {  // midpoint
-    sv = r1 + 0.5 * (r2 - r1);
+    sv = r1 + 0.5 * r1r2;
     c1 = findClosestPoint(a, sv, radii);
   }
+  out.c1 = c1;
+  (void)sv;  // the line point c1 was found from: OpenSim computes it and does not use it
+  return out;
+}
+
+/// A quadrant restriction flips c1 onto the active half (and the tangent points' start with it).
+/// OpenSim's test for an unset fan weight never succeeds (its -infinity minus -infinity is NaN),
+/// so only a fan result is blended back.
+void flipIntoQuadrant(int axis, int sign, const PlanePoint& pp, const Vec3& a, const Vec3& radii, Vec3& c1, Vec3& r1,
+                      Vec3& r2) {
+  if (sign == 0 || dsign(c1[axis]) == sign) return;
+  const Vec3 orig_c1 = c1;
+  c1[axis] = -c1[axis];
+  r1 = r2 = c1;
+  const double w = pp.fan_used ? std::min(pp.fan_weight, 1.0) : 0.0;
+  if (w > 0.0) {
+    const double bisection = (orig_c1[axis] + c1[axis]) / 2.0;
+    c1[axis] = c1[axis] + w * (bisection - c1[axis]);
+    c1 = findClosestPoint(a, c1, radii);
+  }
+}
+
+}  // namespace
+
+WrapStatus wrapEllipsoid(const Vec3& radii, WrapMethod method, int axis, int sign, const Vec3& point1,
+                         const Vec3& point2, WrapResult& result) {
+  // Scale so that the radii average 1 (the factor depends on the radii only).
+  const double factor = 3.0 / radii.sum();
+  const Vec3 p1 = point1 * factor, p2 = point2 * factor, a = radii * factor;
+  const double p1e = p1.cwiseQuotient(a).squaredNorm() - 1.0;
+  const double p2e = p2.cwiseQuotient(a).squaredNorm() - 1.0;
+  if (p1e < -0.0001 || p2e < -0.0001) return WrapStatus::InsideRadius;
+
+  const Vec3 p1p2 = p1 - p2;
+  const double ppm = normalized(p1).dot(normalized(p2)) - 1.0;  // angle between the end points seen from the centre
+  if (std::abs(ppm) < 0.0001) return WrapStatus::NoWrap;
+
+  // Does the line p1-p2 cross the ellipsoid between the two points?
+  const Vec3 f1 = p1p2.cwiseQuotient(a), f2 = p2.cwiseQuotient(a);
+  const double aa = f1.dot(f1), bb = 2.0 * f1.dot(f2), cc = f2.dot(f2) - 1.0;
+  const double disc = bb * bb - 4.0 * aa * cc;
+  if (disc < 0.0) return WrapStatus::NoWrap;
+  const double l1 = (-bb + std::sqrt(disc)) / (2.0 * aa), l2 = (-bb - std::sqrt(disc)) / (2.0 * aa);
+  if (!(0.0 < l1 && l1 < 1.0) || !(0.0 < l2 && l2 < 1.0)) return WrapStatus::NoWrap;
+  Vec3 r1 = p2 + l1 * p1p2, r2 = p2 + l2 * p1p2;
+
+  const PlanePoint pp = findPlanePoint(r1, r2 - r1, p1p2, a, radii, method);
+  Vec3 c1 = pp.c1;
 
   // Start both tangent points at c1 so they stay on c1's side of the ellipsoid.
-  const bool use_c1 = method != WrapMethod::Axial || (t[best] > 0.0 && t[best] < 1.0);
+  const bool use_c1 = method != WrapMethod::Axial || (pp.t_best > 0.0 && pp.t_best < 1.0);
   if (use_c1) r1 = r2 = c1;
 
-  // A quadrant restriction flips c1 onto the active half. OpenSim's test for an unset fan weight
-  // never succeeds (its -infinity minus -infinity is NaN), so only a fan result is blended back.
-  if (sign != 0 && dsign(c1[axis]) != sign) {
-    const Vec3 orig_c1 = c1;
-    c1[axis] = -c1[axis];
-    r1 = r2 = c1;
-    if (fan_used) {
-      const double w = std::min(fan_weight, 1.0);
-      if (w > 0.0) {
-        const double bisection = (orig_c1[axis] + c1[axis]) / 2.0;
-        c1[axis] = c1[axis] + w * (bisection - c1[axis]);
-        c1 = findClosestPoint(a, c1, radii);
-      }
-    }
-  }
+  flipIntoQuadrant(axis, sign, pp, a, radii, c1, r1, r2);
 
   // The wrapping plane through p1, p2 and c1, then the tangent points in it.
   const Vec3 vs = normalized(p1p2.cross(p1 - c1));
@@ -361,7 +381,6 @@ WrapStatus wrapEllipsoid(const Vec3& radii, WrapMethod method, int axis, int sig
   result.length = path.length / factor;
   result.r1 = r1 / factor;
   result.r2 = r2 / factor;
-  (void)sv;
   return WrapStatus::Mandatory;
 }
 
