@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <algorithm>
 
+#include "core/json.hpp"
 #include "core/strings.hpp"
 #include "dynamics/c3d_loads.hpp"
 #include "dynamics/coordinate_smoothing.hpp"
@@ -27,8 +28,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
 
@@ -329,15 +328,15 @@ nlohmann::json toJson(const TrialMuscleLoads& loads, bool timings) {
   nlohmann::json res = nlohmann::json::array();
   for (const ChainReserve& r : loads.reserves)
     res.push_back({{"name", r.name}, {"residual", r.residual}, {"frames_loaded", r.frames_loaded}, {"peak", r.peak},
-                   {"time_of_peak", num(r.time_of_peak)}});
+                   {"time_of_peak", jsonNumber(r.time_of_peak)}});
   j["reserves"] = res;
   nlohmann::json ph = nlohmann::json::array();
   const auto metrics = [](const identify::FitMetrics& m, double r) {
-    return nlohmann::json{{"rmse", num(m.rmse)}, {"rmse_bw", num(m.rmse_bw)}, {"r2", num(m.r2)}, {"r", num(r)},
-                          {"bias", num(m.bias)}, {"peak_measured", num(m.peak_measured)}, {"n_frames", m.n_frames}};
+    return nlohmann::json{{"rmse", jsonNumber(m.rmse)}, {"rmse_bw", jsonNumber(m.rmse_bw)}, {"r2", jsonNumber(m.r2)}, {"r", jsonNumber(r)},
+                          {"bias", jsonNumber(m.bias)}, {"peak_measured", jsonNumber(m.peak_measured)}, {"n_frames", m.n_frames}};
   };
   for (const ChainPhase& p : loads.phases)
-    ph.push_back({{"name", p.name}, {"begin", num(p.begin)}, {"end", num(p.end)},
+    ph.push_back({{"name", p.name}, {"begin", jsonNumber(p.begin)}, {"end", jsonNumber(p.end)},
                   {"total", metrics(p.total, p.r_total)}, {"medial", metrics(p.medial, p.r_medial)},
                   {"lateral", metrics(p.lateral, p.r_lateral)}});
   j["phases"] = ph;

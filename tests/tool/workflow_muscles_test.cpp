@@ -111,10 +111,15 @@ TEST(WorkflowMuscles, JwChainAgainstTheMeasuredForces) {
     EXPECT_LT(ratio, gait ? 1.8 : 2.2);
     EXPECT_LT(all.total.rmse, gait ? 400 : 550);
     EXPECT_NEAR(all.total.rmse_bw, all.total.rmse / (66.7 * 9.80665), 1e-9);
-    if (gait) EXPECT_GT(all.r_medial, 0.75);
+    if (gait) {
+      EXPECT_GT(all.r_medial, 0.75);
+    }
     // The knee's flexion reserve never carries 1 N m: the muscles make the knee moment.
-    for (const ChainReserve& res : k.reserves)
-      if (res.name == "reserve_knee_flexion") EXPECT_EQ(res.frames_loaded, 0);
+    for (const ChainReserve& res : k.reserves) {
+      if (res.name == "reserve_knee_flexion") {
+        EXPECT_EQ(res.frames_loaded, 0);
+      }
+    }
   }
   EXPECT_TRUE(fs::exists(s.results_directory + "/ngait_og3/ngait_og3_muscle_force.sto"));
   EXPECT_TRUE(fs::exists(s.results_directory + "/stairupf1/stairupf1_muscle_knee_reaction.sto"));
