@@ -118,20 +118,6 @@ class AnalyzeTrajectory {
   std::vector<dynamics::NaturalSpline> speed_splines_;
 };
 
-io::Storage makeSoStorage(const StaticOptimization& so, const std::vector<double>& times, const Eigen::MatrixXd& values) {
-  io::Storage s;
-  s.name = "Static Optimization";
-  s.labels.push_back("time");
-  for (const SoActuator& a : so.getActuators()) s.labels.push_back(a.name);
-  s.data.resize(Eigen::Index(times.size()), Eigen::Index(s.labels.size()));
-  for (size_t f = 0; f < times.size(); ++f) {
-    s.data(Eigen::Index(f), 0) = times[f];
-    s.data.row(Eigen::Index(f)).tail(values.cols()) = values.row(Eigen::Index(f));
-  }
-  s.header.emplace_back("inDegrees", "no");
-  return s;
-}
-
 }  // namespace
 
 AnalyzeSetup readAnalyzeSetup(const std::string& path) {
@@ -299,8 +285,8 @@ void runStaticOptimization(const AnalyzeSetup& setup, const std::shared_ptr<cons
   report.frames = int(times.size());
   for (int j = 0; j < na; ++j)
     if (!so.getActuators()[j].is_muscle) report.reserve_frames.emplace_back(so.getActuators()[j].name, reserve_frames[j]);
-  report.activations = makeSoStorage(so, times, activations);
-  report.forces = makeSoStorage(so, times, forces);
+  report.activations = makeActuatorStorage(so, times, activations);
+  report.forces = makeActuatorStorage(so, times, forces);
   const std::string base = xml::resolvePath(setup.results_directory, setup.name + "_" + setup.so_name);
   out.addContents(base + "_activation.sto", io::formatStorage(report.activations));
   out.addContents(base + "_force.sto", io::formatStorage(report.forces));

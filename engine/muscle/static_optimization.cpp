@@ -119,4 +119,19 @@ void StaticOptimization::addActuatorLoads(const SoWorkspace& ws, sim::SpatialCol
   }
 }
 
+io::Storage makeActuatorStorage(const StaticOptimization& so, const std::vector<double>& times,
+                                const Eigen::MatrixXd& values) {
+  io::Storage s;
+  s.name = "Static Optimization";
+  s.labels.push_back("time");
+  for (const SoActuator& a : so.getActuators()) s.labels.push_back(a.name);
+  s.data.resize(Eigen::Index(times.size()), Eigen::Index(s.labels.size()));
+  for (size_t f = 0; f < times.size(); ++f) {
+    s.data(Eigen::Index(f), 0) = times[f];
+    s.data.row(Eigen::Index(f)).tail(values.cols()) = values.row(Eigen::Index(f));
+  }
+  s.header.emplace_back("inDegrees", "no");
+  return s;
+}
+
 }  // namespace kneesim::muscle

@@ -23,6 +23,7 @@
 
 #include "dynamics/external_loads.hpp"
 #include "dynamics/inverse_dynamics.hpp"
+#include "io/storage.hpp"
 #include "muscle/force.hpp"
 #include "muscle/path.hpp"
 
@@ -118,5 +119,10 @@ class StaticOptimization {
   std::vector<SoActuator> actuators_;
   std::vector<int> free_;
 };
+
+/// A table of one value per actuator of @p so at each of @p times (rows of @p values), laid out as
+/// OpenSim's StaticOptimization writes its _activation.sto and _force.sto.
+io::Storage makeActuatorStorage(const StaticOptimization& so, const std::vector<double>& times,
+                                const Eigen::MatrixXd& values);
 
 }  // namespace kneesim::muscle

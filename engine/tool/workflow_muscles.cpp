@@ -44,21 +44,6 @@ std::unique_ptr<dynamics::ExternalLoads> loadGroundReactions(const dynamics::IdS
   return std::make_unique<dynamics::ExternalLoads>(dynamics::readExternalLoads(id.external_loads_file), model);
 }
 
-io::Storage actuatorStorage(const muscle::StaticOptimization& so, const std::vector<double>& time, const Eigen::MatrixXd& v,
-                            const std::string& name) {
-  io::Storage s;
-  s.name = name;
-  s.labels = {"time"};
-  for (const muscle::SoActuator& a : so.getActuators()) s.labels.push_back(a.name);
-  s.data.resize(Eigen::Index(time.size()), Eigen::Index(s.labels.size()));
-  for (size_t f = 0; f < time.size(); ++f) {
-    s.data(Eigen::Index(f), 0) = time[f];
-    s.data.row(Eigen::Index(f)).tail(v.cols()) = v.row(Eigen::Index(f));
-  }
-  s.header.emplace_back("inDegrees", "no");
-  return s;
-}
-
 // Metrics and correlation of @p predicted against @p measured over @p frames.
 void measure(const std::string& trial, const std::vector<double>& time, const std::vector<double>& predicted,
              const std::vector<double>& measured, const std::vector<int>& frames, double body_mass,
@@ -187,8 +172,8 @@ TrialMuscleLoads runTrialMuscleChain(const MuscleChainSetup& setup, const Muscle
     out.moment.row(Eigen::Index(f)) = (L.moment + L.point.cross(L.force)).transpose();
   }
   out.cpu_ms_per_frame = 1e3 * (cpuSeconds() - cpu0) / double(nf);
-  out.activations = actuatorStorage(so, out.time, act, "Static Optimization");
-  out.forces = actuatorStorage(so, out.time, force, "Static Optimization");
+  out.activations = muscle::makeActuatorStorage(so, out.time, act);
+  out.forces = muscle::makeActuatorStorage(so, out.time, force);
 
   // Reserves and residuals.
   for (int j = 0; j < na; ++j) {

@@ -148,17 +148,21 @@ Plot forcePlot(const identify::ContactLaw& law, bool per_compartment, const Tria
   return p;
 }
 
+// Heel strikes and toe-off on a plot against the gait cycle (nothing without a complete cycle).
+void addGaitEventLines(const WorkflowTrialResult& r, Plot& p) {
+  if (!r.cycle.isComplete()) return;
+  p.vlines.push_back({0.0, "heel strike"});
+  if (std::isfinite(r.cycle.toe_off)) p.vlines.push_back({r.cycle.getToeOffPercent(), "toe-off"});
+  p.vlines.push_back({100.0, "heel strike"});
+}
+
 // The musculoskeletal knee force of one trial beside the measured forces and the contact law's.
 Plot muscleLoadPlot(const WorkflowTrialResult& r, const std::string& pdir) {
   const bool rc = r.cycle.isComplete();
   Plot p = makeMuscleLoadPlot(r.muscle_loads, r.forces, r.trial_prediction.predicted, plotAxis(r, rc),
                               rc ? "gait cycle (%)" : "time (s)", r.name);
   p.file = pdir + "/fig11_muscle_knee_force_" + r.name + ".png";
-  if (rc) {
-    p.vlines.push_back({0.0, "heel strike"});
-    if (std::isfinite(r.cycle.toe_off)) p.vlines.push_back({r.cycle.getToeOffPercent(), "toe-off"});
-    p.vlines.push_back({100.0, "heel strike"});
-  }
+  addGaitEventLines(r, p);
   return p;
 }
 
@@ -167,11 +171,7 @@ Plot kneeLoadPlot(const WorkflowTrialResult& r, const std::string& pdir) {
   const bool rc = r.cycle.isComplete();
   Plot p = makeKneeLoadPlot(r.knee_loads, r.forces, plotAxis(r, rc), rc ? "gait cycle (%)" : "time (s)", r.name);
   p.file = pdir + "/fig10_knee_loads_" + r.name + ".png";
-  if (rc) {
-    p.vlines.push_back({0.0, "heel strike"});
-    if (std::isfinite(r.cycle.toe_off)) p.vlines.push_back({r.cycle.getToeOffPercent(), "toe-off"});
-    p.vlines.push_back({100.0, "heel strike"});
-  }
+  addGaitEventLines(r, p);
   return p;
 }
 
