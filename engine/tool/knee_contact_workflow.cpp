@@ -129,6 +129,15 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
     gap::GapSetup gs = gap::readGapSetup(file);
     // The areas and the knee's net loads (knee_load effect) this run just wrote.
     gap::setWorkflowResults(gs, setup.results_directory);
+    // A setup that tests muscle_load reads the musculoskeletal force beside the net loads
+    // (knee_muscle_total, <trial>_knee_loads_muscles.sto) in place of the net loads alone.
+    if (std::find(gs.plugins.begin(), gs.plugins.end(), "muscle_load") != gs.plugins.end())
+      for (gap::TrialSource& t : gs.trials)
+        for (const WorkflowTrialResult& r : report.trials) {
+          const fs::path dir = trialDirectory(setup, r.name);
+          if (r.name == t.name && !r.muscle_loads.total.empty() && t.knee_loads == (dir / (r.name + "_knee_loads.sto")).string())
+            t.knee_loads = (dir / (r.name + "_knee_loads_muscles.sto")).string();
+        }
     gs.results_directory = (fs::path(setup.results_directory) / "gap" / gs.name).string();
     if (!setup.plots) gs.report.plots = false;
     progress("gap " + gs.name, 0, 1);

@@ -300,6 +300,21 @@ Plot makeMuscleLoadPlot(const TrialMuscleLoads& loads, const io::KneeForces& for
   return p;
 }
 
+io::Storage makeGapLoadTable(const io::Storage& knee_loads, const TrialMuscleLoads& loads) {
+  io::Storage s = knee_loads;
+  s.name = "knee net loads (inverse dynamics) and the musculoskeletal knee force";
+  s.header.emplace_back("knee_muscle_total", "compressive force on the tibial component with muscle forces (N)");
+  std::vector<double> t(size_t(s.getNumRows())), total(loads.time.size());
+  for (size_t r = 0; r < t.size(); ++r) t[r] = s.data(Eigen::Index(r), 0);
+  for (size_t f = 0; f < total.size(); ++f) total[f] = -loads.force.row(Eigen::Index(f)).dot(loads.axes.superior.transpose());
+  // Held at the end values within half a frame (the two tables share their frames).
+  const std::vector<double> at = gap::interpolate(loads.time, total, t, 1e-3);
+  s.labels.push_back("knee_muscle_total");
+  s.data.conservativeResize(Eigen::NoChange, s.data.cols() + 1);
+  for (size_t r = 0; r < t.size(); ++r) s.data(Eigen::Index(r), s.data.cols() - 1) = at[r];
+  return s;
+}
+
 nlohmann::json toJson(const TrialMuscleLoads& loads, bool timings) {
   nlohmann::json j;
   j["frames"] = loads.time.size();

@@ -124,6 +124,11 @@ void compareMuscleLoads(TrialMuscleLoads& loads, const std::string& trial, const
 Plot makeMuscleLoadPlot(const TrialMuscleLoads& loads, const io::KneeForces& forces, const std::vector<double>& hertz,
                         const std::vector<double>& x, const std::string& xlabel, const std::string& trial);
 
+/// The knee's net loads of inverse dynamics (@p knee_loads: time and knee_* columns, at the chain's
+/// frames) with the musculoskeletal compressive force beside them as knee_muscle_total: the
+/// channels a gap diagnosis testing the muscle_load effect reads (plugins/muscle_load).
+io::Storage makeGapLoadTable(const io::Storage& knee_loads, const TrialMuscleLoads& loads);
+
 /// summary.json's muscle_chain entry of a trial.
 nlohmann::json toJson(const TrialMuscleLoads& loads, bool timings = true);
 

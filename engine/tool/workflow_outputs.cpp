@@ -256,6 +256,9 @@ void addTrialOutputs(const WorkflowSetup& setup, const WorkflowInputs& in, const
       outputs.addContents(base.string() + "_activation.sto", io::formatStorage(r.muscle_loads.activations));
       outputs.addContents(base.string() + "_force.sto", io::formatStorage(r.muscle_loads.forces));
       outputs.addContents(base.string() + "_knee_reaction.sto", io::formatStorage(r.muscle_loads.reaction));
+      if (r.knee_loads.table.getNumRows() > 0)
+        outputs.addContents((fs::path(dir) / (r.name + "_knee_loads_muscles.sto")).string(),
+                            io::formatStorage(makeGapLoadTable(r.knee_loads.table, r.muscle_loads)));
     }
   }
 }
