@@ -78,7 +78,7 @@ struct DiagnosisOptions {
   /// prewhitened error), the larger prewhitened withheld improvement is selected. Reported errors
   /// stay in newtons.
   int prewhiten_order = -1;
-  /// Family level of the remaining-structure tests, shared by Bonferroni between four: the sign-flip
+  /// Family level of the remaining-structure tests, shared by Bonferroni between four: the F-type
   /// test of the mean gap, the model-agnostic check, the noise floor's excess and the cycles'
   /// heterogeneity (gap/remaining.hpp).
   double structure_alpha = 0.05;
@@ -87,7 +87,6 @@ struct DiagnosisOptions {
   double noise_tolerance = 1.25;
   bool agnostic_check = true;     ///< Run the model-agnostic check (boosted trees on every signal).
   int structure_bins = 10;        ///< Bins per cycle of the remaining-structure test.
-  int permutations = 2000;        ///< Sign flips of the remaining-structure test.
   int bootstrap = 1000;           ///< Bootstrap resamples of cycles for shrinkage intervals.
   int bins = 50;                  ///< Bins per cycle of the reported bands.
   bool where = true;              ///< Run the where-analysis (bands, phases, correlations, references).
@@ -220,9 +219,11 @@ struct ConfusablePair {
 
 /// Remaining systematic structure in the gap of the final model. Four tests, each at a quarter of
 /// DiagnosisOptions::structure_alpha (Bonferroni):
-///  - the mean gap over the cycle: a sign-flip permutation test over cycles of the fit on all cycles'
-///    residuals (the squared mean residual per bin of the cycle times the number of cycles, summed): the
-///    mean against the mean's own uncertainty, not against the single cycles' spread;
+///  - the mean gap over the cycle: an F-type test (Shen & Faraway 2004) of the fit on all cycles'
+///    residuals binned over the cycle, a mean curve per activity against none (the squared mean per bin
+///    times the number of cycles, against the cycles' scatter about their activity's mean curve, with
+///    Box's effective number of bins): the mean against the mean's own uncertainty, not against the
+///    single cycles' spread;
 ///  - the model-agnostic check (AgnosticCheck): boosted trees on every signal, cross-validated;
 ///  - the noise floor (NoiseFloor): the withheld error significantly above the scatter of matched
 ///    frames of other cycles;
@@ -233,8 +234,8 @@ struct ConfusablePair {
 /// "none of the candidates" on its own. The repeatability band (the measured force's SD across cycles)
 /// is reported next to the systematic gap and the mean's uncertainty, no longer as a test.
 struct StructureTest {
-  double statistic = 0;
-  double p_value = 0;             ///< Sign-flip test; NaN with too few cycles.
+  double statistic = 0;           ///< The mean-gap test's F.
+  double p_value = 0;             ///< The mean-gap test's; NaN with too few cycles beyond one per activity.
   int cycles = 0;
   double systematic_gap = 0;      ///< RMS over bins of the mean withheld gap, N.
   double mean_uncertainty = 0;    ///< RMS over the same bins of the mean gap's standard error (SD / sqrt(cycles)), N.

@@ -282,6 +282,12 @@ double studentCdf(double t, double dof) {
   return t >= 0 ? 1 - tail : tail;
 }
 
+double fisherSurvival(double f, double dof1, double dof2) {
+  if (!(dof1 > 0) || !(dof2 > 0) || std::isnan(f)) return kNaN;
+  if (f <= 0) return 1;
+  return incompleteBeta(dof2 / 2, dof1 / 2, dof2 / (dof2 + dof1 * f));
+}
+
 double studentQuantile(double p, double dof) {
   if (!(p > 0 && p < 1) || !(dof > 0)) return kNaN;
   // Bracket from the normal quantile, then bisect (monotone, cheap enough for reports).

@@ -59,6 +59,9 @@ double studentCdf(double t, double dof);
 double studentQuantile(double p, double dof);
 /// Upper tail P(X > x) of a chi-square variable with @p dof degrees of freedom.
 double chiSquareSurvival(double x, double dof);
+/// Upper tail P(X > f) of Fisher's F with @p dof1 and @p dof2 degrees of freedom (both > 0, may be
+/// fractional); NaN otherwise.
+double fisherSurvival(double f, double dof1, double dof2);
 
 /// Mean and a two-sided Student-t confidence interval of the mean of @p v (NaN when fewer than 2).
 struct MeanInterval {

@@ -71,7 +71,7 @@ TEST(BlindSuite, NamesTheHiddenEffectPrefersTheBaselineAndRecoversTheSize) {
     ASSERT_GE(o.trace.size(), 2u) << o.case_name << " seed " << o.seed;
     EXPECT_EQ(o.trace.front().rfind("step 1: screened ", 0), 0u) << o.trace.front();
     EXPECT_EQ(o.trace.back().rfind("verdict: " + o.answer, 0), 0u) << o.trace.back();
-    EXPECT_NE(o.trace.back().find("] (remaining structure: sign-flip p "), std::string::npos) << o.trace.back();
+    EXPECT_NE(o.trace.back().find("] (remaining structure: mean-gap p "), std::string::npos) << o.trace.back();
     if (o.answer != "baseline" && o.answer != "none of the candidates" && o.answer != "undecided") {
       EXPECT_NE(o.trace.front().find(" *" + o.answer + "["), std::string::npos) << o.trace.front();
     }

@@ -126,10 +126,45 @@ TEST_F(Diagnosis, BaselineIsPreferredAndTheIsotonicFloorHolds) {
     for (double p : s.baseline) ASSERT_TRUE(std::isfinite(p)) << s.trial;
 }
 
+// A mean gap of each recording's own (a slow wander of the load cells' zero, a recording-level offset)
+// with one recording per activity, as in share/gap/jw_gap.xml: the mean-gap test must be able to find
+// it. Six synthetic recordings (three each of JW's gait and stair trials), each its own activity, offsets
+// of +-150 N that the law cannot take. The sign-flip test it replaced could not: flipping every cycle of
+// an activity leaves its statistic unchanged, so its p was at least 2^6 / 2^cycles (1/64 with 12). Without
+// the offsets the same recordings give an F near one.
+TEST_F(Diagnosis, MeanGapTestFindsAnOffsetPerRecordingWithOneRecordingPerActivity) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  DiagnosisOptions o = options();
+  o.cv_folds = 0;
+  o.max_effects = 0;
+  o.agnostic_check = false;
+  o.where = false;
+  o.shrinkage = false;
+  auto run = [&](double offset) {
+    std::vector<GapTrial> trials = synthetic({}, 5);
+    std::vector<GapTrial> kept;
+    for (auto& g : trials) {  // three replicates each of JW's gait and stair recordings
+      g.activity = g.activity + " " + std::to_string(kept.size());
+      for (double& f : g.trial.measured_force) f += (kept.size() % 2 ? -offset : offset);
+      kept.push_back(g);
+    }
+    return diagnose(hertz(), catalogue, kept, o).targets[0].structure;
+  };
+  const StructureTest with = run(150), without = run(0);
+  std::printf("[ info     ] mean gap %.0f N +- %.0f N over %d cycles: F = %.2f, p = %.2g (%s); without the offsets "
+              "F = %.2f, p = %.2g\n", with.systematic_gap, with.mean_uncertainty, with.cycles, with.statistic,
+              with.p_value, with.note.c_str(), without.statistic, without.p_value);
+  EXPECT_GE(with.cycles, 6);
+  EXPECT_LT(with.p_value, 1e-3);
+  EXPECT_THAT(with.evidence, ::testing::Contains(std::string("mean gap over the cycle")));
+  EXPECT_GT(without.p_value, o.structure_alpha / 4);
+  EXPECT_LT(without.statistic, 2.5);
+}
+
 // JW's real contact areas (the paper workflow's, the femur seated by the model: a function of the
 // flexion alone) cannot follow a force that varies from 100 to 1600 N. With only four cycles no test of
-// what remains has the power to say so -- the sign-flip test needs six, the mean gap (385 N) is within
-// its own uncertainty (367 N), the model-agnostic check removes a third of the withheld error with a
+// what remains has the power to say so -- the mean gap (385 N) is within its own uncertainty (367 N), too
+// few cycles beyond one per activity for the F-type test, the model-agnostic check removes a third of the withheld error with a
 // score t of 3.1 where 3 degrees of freedom need 5.4 -- so the verdict is "undecided", with the cycles
 // that would tell, never "baseline". The gap follows the external load (the vertical ground reaction
 // force of the instrumented leg and the knee's net axial force that carries it), and the external-load
@@ -147,7 +182,9 @@ TEST_F(Diagnosis, RealAreasLeaveAGapThatFollowsTheExternalLoad) {
               b.structure.repeatability_band, b.correlations[0].signal.c_str(), b.correlations[0].r);
   EXPECT_EQ(b.verdict_class, "undecided");
   EXPECT_EQ(b.verdict, "undecided");
-  EXPECT_TRUE(std::isnan(b.structure.p_value));  // 4 cycles: too few for the sign-flip test
+  // 4 cycles of 2 activities, some bins of the edge cycles empty: fewer than two cycles beyond one per
+  // activity for the mean-gap test.
+  EXPECT_TRUE(std::isnan(b.structure.p_value));
   EXPECT_TRUE(b.structure.exceeds_band);
   EXPECT_LT(b.structure.systematic_gap, 2 * b.structure.mean_uncertainty);
   EXPECT_GT(b.structure.agnostic.reduction, 0.2);

@@ -72,6 +72,14 @@ TEST(Signals, DistributionsAgainstTables) {
   EXPECT_NEAR(chiSquareSurvival(3.841459, 1), 0.05, 1e-6);
   EXPECT_NEAR(chiSquareSurvival(18.307038, 10), 0.05, 1e-6);
   EXPECT_NEAR(chiSquareSurvival(0.5, 2), std::exp(-0.25), 1e-12);  // dof 2: exp(-x/2)
+  // F tables' 95 % points (F(3, 6) = 4.757063, F(10, 60) = 1.992592) and the closed form for dof1 = 2,
+  // P(F > f) = (1 + 2 f / dof2)^(-dof2 / 2); F(1, d) is a squared Student t.
+  EXPECT_NEAR(fisherSurvival(4.757063, 3, 6), 0.05, 1e-6);
+  EXPECT_NEAR(fisherSurvival(1.992592, 10, 60), 0.05, 1e-6);
+  EXPECT_NEAR(fisherSurvival(3.7, 2, 7.5), std::pow(1 + 2 * 3.7 / 7.5, -7.5 / 2), 1e-12);
+  EXPECT_NEAR(fisherSurvival(2.1 * 2.1, 1, 9), 2 * (1 - studentCdf(2.1, 9)), 1e-12);
+  EXPECT_EQ(fisherSurvival(0, 3, 4), 1.0);
+  EXPECT_TRUE(std::isnan(fisherSurvival(1, 0, 4)));
   const MeanInterval m = meanInterval({1, 2, 3, 4});
   EXPECT_DOUBLE_EQ(m.mean, 2.5);
   EXPECT_NEAR(m.sd, 1.2909944, 1e-7);

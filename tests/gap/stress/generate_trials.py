@@ -60,6 +60,12 @@ def load_sources(data_dir, area_dir):
             src["grf_right"] = [sum(J.interp(times, plates[p - 1], x) for p in RIGHT_PLATES[name]) for x in t]
         else:
             src["grf_right"] = [J.CSV_GRF_NEWTONS_PER_UNIT * max(0.0, g) for g in J.column(header, rows, "GRF")]
+        # The knee's net flexion moment (inverse dynamics, no muscles; the fixture files the gap tests read)
+        # for the trials with a C3D: the signal of the knee_load cases, read as a data file.
+        loads = os.path.join(area_dir, "jw_%s_knee_loads.sto" % name)
+        if os.path.exists(loads):
+            kl = J.read_sto(loads)
+            src["knee_flexion_moment"] = [J.interp(kl["time"], kl["knee_flexion_moment"], x) for x in t]
         out.append(src)
     return out
 
@@ -161,6 +167,12 @@ def apply_effect(case, src, f0, rng):
         return [f0[i] + size * src["grf_right"][i] for i in range(n)]
     if kind == "flexion_grf":
         return [f0[i] + size * src["grf_right"][i] * src["knee_flexion"][i] for i in range(n)]
+    if kind == "knee_moment":
+        # Muscles balancing the net flexion moment press the components together: size N per N m (the
+        # inverse of their lever arm). Trials without inverse dynamics (the chair rise) get none; the
+        # case's setup leaves them out.
+        m = src.get("knee_flexion_moment")
+        return list(f0) if m is None else [f0[i] + size * m[i] for i in range(n)]
     if kind == "load_rate_interaction":
         return [f0[i] + size * src["grf_right"][i] * src["flexion_rate"][i] for i in range(n)]
     if kind == "contact_hysteresis":
@@ -182,6 +194,8 @@ def apply_effect(case, src, f0, rng):
     raise ValueError("unknown case kind " + kind)
 
 
+C3D_TRIALS = ("ngait_og3", "stairupf1")
+
 # What each case injects, and why that size (docs/gap.md, "Independent stress suite"). In-catalogue
 # cases are sized by what the baseline cannot absorb (visible_rms), 1x or 2x the noise: their
 # parameter is found by bisection below. Outside cases are sized from physics.
@@ -201,6 +215,14 @@ CASES = {
     "issue_grf_load": {"kind": "grf_load", "size": 1.0, "expect": "grf_load"},
     "issue_hysteresis": {"kind": "hysteresis", "size": 200.0, "expect": "hysteresis"},
     "issue_flexion_grf": {"kind": "flexion_grf", "visible": 2.0, "lo": 0.0, "hi": 5.0, "expect": "load_flexion"},
+    # Issue 18's knee_load: force proportional to the knee's net flexion moment. Only the two trials with
+    # a C3D have inverse dynamics, so these cases are diagnosed as share/gap/jw_gap_c3d.xml runs (4
+    # cycles), next to nothing injected on the same setup; on jw_gap.xml knee_load is not testable.
+    "nothing_c3d": {"kind": "nothing", "expect": "baseline", "setup": "jw_gap_c3d.xml", "trials": C3D_TRIALS},
+    "knee_load_1x": {"kind": "knee_moment", "visible": 1.0, "lo": 0.0, "hi": 100.0, "expect": "knee_load",
+                     "setup": "jw_gap_c3d.xml", "trials": C3D_TRIALS},
+    "knee_load_2x": {"kind": "knee_moment", "visible": 2.0, "lo": 0.0, "hi": 100.0, "expect": "knee_load",
+                     "setup": "jw_gap_c3d.xml", "trials": C3D_TRIALS},
     # Quadriceps force-velocity under load: the quadriceps carry about a body weight of the stance
     # contact force, and their force at a given activation changes by ~15 % per rad/s of knee angular
     # velocity near isometric (eccentric higher, concentric lower), so dF = 0.15 s/rad x GRF x dtheta/dt.
@@ -225,6 +247,7 @@ for _name in ("load_rate_interaction", "contact_hysteresis", "drift", "varying_g
 
 def calibrate(sources, k, case):
     """The parameter at which the injected effect's visible RMS is case['visible'] x the noise."""
+    sources = [s for s in sources if s["name"] in case.get("trials", [s["name"] for s in sources])]
     f0 = baseline(sources, k)
     target = case["visible"] * NOISE_SD
     lo, hi = case["lo"], case["hi"]

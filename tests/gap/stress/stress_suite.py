@@ -62,6 +62,11 @@ def write_setup(template, out_dir, csv_dir, areas, data):
         if ca is None:
             ca = ET.SubElement(trial, "contact_area")
         ca.text = os.path.join(areas, "jw_%s_contact_area.sto" % name)
+        # The knee's net loads where inverse dynamics has them (the workflow's <trial>_knee_loads.sto,
+        # as `kneesim gap --workflow-results` reads them): the knee_load effect's channels.
+        loads = os.path.join(areas, "jw_%s_knee_loads.sto" % name)
+        if os.path.exists(loads) and trial.find("knee_loads") is None:
+            ET.SubElement(trial, "knee_loads").text = loads
     path = os.path.join(out_dir, "setup.xml")
     tree.write(path)
     return path
@@ -100,6 +105,8 @@ def run_one(kneesim, sources, k, case, seed, work, areas, data, template):
     shutil.rmtree(d, ignore_errors=True)
     os.makedirs(d)
     G.write_trials(sources, k, case, seed, d)
+    if "setup" in case:  # a case diagnosed on another of share/gap's setups
+        template = os.path.join(ROOT, "share/gap", case["setup"])
     setup = write_setup(template, d, d, areas, data)
     res = os.path.join(d, "result")
     t0 = time.time()
@@ -190,7 +197,8 @@ def matrix(cases, outcomes):
         lo, hi = wilson(right, len(judged))
         above = sum(1 for o in ok if o["remaining_systematic"] > G.NOISE_SD)
         size = c.get("size")
-        label = "%s (%s)" % (c["name"], ("%.4g" % size) if isinstance(size, float) else "-")
+        label = "%s (%s)%s" % (c["name"], ("%.4g" % size) if isinstance(size, float) else "-",
+                               (" on " + c["setup"]) if "setup" in c else "")
         lines.append("| %s | %d | %d | %d | %d | %d | %d | %s | %s | %d/%d | %.0f | %.0f -> %.0f | %.0f |" % (
             label, counts["explained"], counts["partly explained"], counts["not explained"], counts["undecided"],
             counts["baseline"], len(outs) - len(ok),
