@@ -306,13 +306,21 @@ NoiseFloor estimateNoiseFloor(const RemainingData& d, const RemainingOptions& o)
   return nf;
 }
 
-CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const RemainingOptions& o) {
-  CycleHeterogeneity h;
+namespace {
+
+constexpr int kSlots = 3;
+
+// One cycle's slots (thirds by phase): the residual's offset and relative gain in each.
+struct SlotCycle {
+  std::array<double, kSlots> m, g;
+};
+
+// Per activity, the cycles with every slot: per unit and third of the cycle (their outer fifths
+// dropped: slots of a gait cycle are 0.15 s -- three correlation times of the smooth noise -- apart),
+// the residual's offset (its mean) and relative gain (its projection on the prediction,
+// sum(r F) / sum(F^2)).
+std::map<std::string, std::vector<SlotCycle>> slotCycles(const RemainingData& d) {
   const int n_units = countUnits(d);
-  constexpr int kSlots = 3;
-  // Per unit and slot of the cycle (thirds by phase, their outer fifths dropped: slots of a gait cycle
-  // are 0.15 s -- three correlation times of the smooth noise -- apart), the residual's offset (its
-  // mean) and relative gain (its projection on the prediction, sum(r F) / sum(F^2)).
   struct Sums {
     double r = 0, rf = 0, ff = 0;
     int n = 0;
@@ -329,12 +337,9 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
       Sums& sm = sums[u][k];
       sm.r += r, sm.rf += r * f, sm.ff += f * f, ++sm.n;
     }
-  struct Cycle {
-    std::array<double, kSlots> m, g;
-  };
-  std::map<std::string, std::vector<Cycle>> by_act;
+  std::map<std::string, std::vector<SlotCycle>> by_act;
   for (int u = 0; u < n_units; ++u) {
-    Cycle c{};
+    SlotCycle c{};
     bool ok = true;
     for (int k = 0; k < kSlots && ok; ++k) {
       const Sums& sm = sums[u][k];
@@ -343,11 +348,73 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
     }
     if (ok) by_act[d.unit_activity[u]].push_back(c);
   }
+  return by_act;
+}
+
+// The statistic's null distribution: each slot gets the values of another cycle of the same activity
+// (slot by slot, independently); every pairing when there are few, else 2000 drawn. Returns the
+// p-value and the pairings counted.
+std::pair<double, int> pairingP(const std::vector<std::vector<SlotCycle>>& groups, double vm, double vg,
+                                double observed) {
+  using Perm = std::vector<std::array<std::vector<int>, kSlots>>;
+  auto statistic = [&](const Perm& perm) {
+    double s = 0;
+    for (size_t a = 0; a < groups.size(); ++a)
+      for (size_t u = 0; u < groups[a].size(); ++u)
+        for (int k = 0; k < kSlots; ++k)
+          for (int l = k + 1; l < kSlots; ++l) {
+            const SlotCycle& x = groups[a][perm[a][k][u]];
+            const SlotCycle& y = groups[a][perm[a][l][u]];
+            s += x.m[k] * y.m[l] / vm + x.g[k] * y.g[l] / vg;
+          }
+    return s;
+  };
+  Perm perm(groups.size());
+  double count = 1;
+  for (size_t a = 0; a < groups.size(); ++a)
+    for (int k = 0; k < kSlots; ++k) {
+      perm[a][k].resize(groups[a].size());
+      std::iota(perm[a][k].begin(), perm[a][k].end(), 0);
+      if (k > 0)  // the first slot may stay: only the pairing between slots matters
+        for (size_t j = 2; j <= groups[a].size() && count <= 1e7; ++j) count *= double(j);
+    }
+  int ge = 0, total = 0;
+  if (count <= 5000) {
+    Perm cur = perm;
+    while (true) {
+      ge += statistic(cur) >= observed - 1e-9 * std::abs(observed);
+      ++total;
+      size_t a = 0;
+      int k = 1;
+      // odometer over every group's slots 1..K-1
+      while (a < cur.size() && !std::next_permutation(cur[a][k].begin(), cur[a][k].end())) {
+        if (++k == kSlots) k = 1, ++a;
+      }
+      if (a == cur.size()) break;
+    }
+  } else {
+    std::mt19937_64 rng(20150101);
+    Perm cur = perm;
+    ge = 1, total = 1;
+    for (int r = 0; r < 2000; ++r) {
+      for (auto& g : cur)
+        for (int k = 1; k < kSlots; ++k) std::shuffle(g[k].begin(), g[k].end(), rng);
+      ge += statistic(cur) >= observed - 1e-9 * std::abs(observed);
+      ++total;
+    }
+  }
+  return {double(ge) / total, total};
+}
+
+}  // namespace
+
+CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const RemainingOptions& o) {
+  CycleHeterogeneity h;
   // Centred per activity and slot; scaled by the pooled variance of the slot estimates.
-  std::vector<std::vector<Cycle>> groups;
+  std::vector<std::vector<SlotCycle>> groups;
   int used = 0;
   double vm = 0, vg = 0, nv = 0;
-  for (auto& [act, v] : by_act) {
+  for (auto& [act, v] : slotCycles(d)) {
     if (v.size() < 2) continue;
     for (int k = 0; k < kSlots; ++k) {
       double mm = 0, mg = 0;
@@ -370,67 +437,22 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
   vm = std::max(vm / nv, 1e-300);
   vg = std::max(vg / nv, 1e-300);
   // Statistic: the cross-products of a cycle's slots (each pair of slots), summed. A cycle's own offset
-  // or gain shows in all its slots; the slots' noise is independent. The null gives each slot the
-  // values of another cycle of the same activity (slot by slot, independently): every pairing when
-  // there are few, else 2000 drawn.
-  using Perm = std::vector<std::array<std::vector<int>, kSlots>>;
-  auto statistic = [&](const Perm& perm) {
-    double s = 0;
-    for (size_t a = 0; a < groups.size(); ++a)
-      for (size_t u = 0; u < groups[a].size(); ++u)
-        for (int k = 0; k < kSlots; ++k)
-          for (int l = k + 1; l < kSlots; ++l) {
-            const Cycle& x = groups[a][perm[a][k][u]];
-            const Cycle& y = groups[a][perm[a][l][u]];
-            s += x.m[k] * y.m[l] / vm + x.g[k] * y.g[l] / vg;
-          }
-    return s;
-  };
-  Perm perm(groups.size());
-  double count = 1;
-  for (size_t a = 0; a < groups.size(); ++a)
-    for (int k = 0; k < kSlots; ++k) {
-      perm[a][k].resize(groups[a].size());
-      std::iota(perm[a][k].begin(), perm[a][k].end(), 0);
-      if (k > 0)  // the first slot may stay: only the pairing between slots matters
-        for (size_t j = 2; j <= groups[a].size() && count <= 1e7; ++j) count *= double(j);
-    }
-  h.statistic = statistic(perm);
-  int ge = 0, total = 0;
-  if (count <= 5000) {
-    Perm cur = perm;
-    while (true) {
-      ge += statistic(cur) >= h.statistic - 1e-9 * std::abs(h.statistic);
-      ++total;
-      size_t a = 0;
-      int k = 1;
-      // odometer over every group's slots 1..K-1
-      while (a < cur.size() && !std::next_permutation(cur[a][k].begin(), cur[a][k].end())) {
-        if (++k == kSlots) k = 1, ++a;
-      }
-      if (a == cur.size()) break;
-    }
-  } else {
-    std::mt19937_64 rng(20150101);
-    Perm cur = perm;
-    ge = 1, total = 1;
-    for (int r = 0; r < 2000; ++r) {
-      for (auto& g : cur)
-        for (int k = 1; k < kSlots; ++k) std::shuffle(g[k].begin(), g[k].end(), rng);
-      ge += statistic(cur) >= h.statistic - 1e-9 * std::abs(h.statistic);
-      ++total;
-    }
-  }
-  h.p_value = double(ge) / total;
+  // or gain shows in all its slots; the slots' noise is independent.
+  double stat = 0, cm = 0, cg = 0, np = 0;
+  for (const auto& v : groups)
+    for (const auto& c : v)
+      for (int k = 0; k < kSlots; ++k)
+        for (int l = k + 1; l < kSlots; ++l) {
+          stat += c.m[k] * c.m[l] / vm + c.g[k] * c.g[l] / vg;
+          cm += c.m[k] * c.m[l], cg += c.g[k] * c.g[l], ++np;
+        }
+  h.statistic = stat;
+  const auto [p, total] = pairingP(groups, vm, vg, h.statistic);
+  h.p_value = p;
   h.dof = total;
   h.significant = h.p_value < o.alpha;
   // Sizes: the mean cross-product of two slots of a cycle is the variance of what the cycle itself
   // carries (their noise is independent).
-  double cm = 0, cg = 0, np = 0;
-  for (const auto& v : groups)
-    for (const auto& c : v)
-      for (int k = 0; k < kSlots; ++k)
-        for (int l = k + 1; l < kSlots; ++l) cm += c.m[k] * c.m[l], cg += c.g[k] * c.g[l], ++np;
   h.offset_sd = std::sqrt(std::max(0.0, cm / np));
   h.gain_sd = std::sqrt(std::max(0.0, cg / np));
   h.run = true;

@@ -138,8 +138,13 @@ double NoiseMetric::calcSquaredDistance(const std::vector<double>& d, double rat
   return v.dot(findFactor(static_cast<int>(x.size()), rate).solve(v));
 }
 
-std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
-                                          const std::vector<GapTrial>& sources, const SynthOptions& o) {
+namespace {
+
+// The law extended by the injected effects and its parameter vector (the baseline values, the injected
+// sizes), after checking the options.
+std::pair<identify::ContactLaw, Eigen::VectorXd> makeSyntheticLaw(const identify::ContactLaw& base,
+                                                                 const std::vector<Effect>& catalogue,
+                                                                 const SynthOptions& o) {
   std::vector<Effect> used;
   for (const auto& inj : o.effects) {
     const Effect* e = nullptr;
@@ -176,6 +181,65 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
     throw InputError(
         {}, "synthetic trials: expected at least 1 replicate per source trial, got " + std::to_string(o.replicates));
 
+  return {law, p};
+}
+
+// A replicate's smooth variation of its channels: one offset for the flexion (the areas follow it
+// through their flexion derivatives, as the model's areas do), an optional factor for all areas, one
+// factor for the external load and the EMG; then rates consistent with the varied channels.
+void varyReplicate(const SynthOptions& o, double rate, std::mt19937_64& rng, GapTrial& g) {
+  const std::vector<double>& t = g.trial.time;
+  const int n = g.getNumFrames();
+  auto& ch = g.trial.channels;
+  // Smooth between-replicate variation: one offset for the flexion (the areas follow it through
+  // their flexion derivatives, as the model's areas do), an optional factor for all areas, one
+  // factor for the external load and the EMG.
+  const std::vector<double> xa = smoothNoise(n, rate, 0.15, rng), xf = smoothNoise(n, rate, 0.2, rng),
+                            xl = smoothNoise(n, rate, 0.15, rng);
+  std::vector<double> dtheta(n);
+  for (int i = 0; i < n; ++i) dtheta[i] = o.flexion_variation * xf[i];
+  std::vector<double> s_factor(n, 1.0);  // relative change of S, applied to the S@<x>mm channels
+  if (ch.count("dS_dflexion") && ch.count("S")) {
+    for (const std::string side : {"", "_medial", "_lateral"}) {
+      auto a = ch.find("S" + side), d = ch.find("dS" + side + "_dflexion");
+      if (a == ch.end() || d == ch.end()) continue;
+      for (int i = 0; i < n; ++i) {
+        const double before = a->second[i];
+        a->second[i] = std::max(0.05 * before, before + d->second[i] * dtheta[i]);
+        if (side.empty() && before > 0) s_factor[i] = a->second[i] / before;
+      }
+    }
+    for (auto& [name, v] : ch)
+      if (startsWith(name, "S@"))
+        for (int i = 0; i < n; ++i) v[i] *= s_factor[i];
+  }
+  for (auto& [name, v] : ch) {
+    if (isAreaChannel(name) || name == "dS_dflexion" || name == "dS_dap" || startsWith(name, "dS_medial_d") ||
+        startsWith(name, "dS_lateral_d")) {
+      if (o.area_variation > 0 && !endsWith(name, "_dt"))
+        for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
+    } else if (name == "knee_flexion") {
+      for (int i = 0; i < n; ++i) v[i] += dtheta[i];
+    } else if (startsWith(name, "GRF:") || startsWith(name, "EMG:")) {
+      for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.load_variation * xl[i]);
+    }
+  }
+  // Rates consistent with the varied channels.
+  for (const char* s : {"S", "S_medial", "S_lateral"}) {
+    if (!ch.count(s)) continue;
+    const std::string d = std::string(s) == "S" ? "dS_dt" : "d" + std::string(s) + "_dt";
+    ch[d] = derivative(t, lowPass(ch[s], rate, std::min(10.0, 0.45 * rate)));
+  }
+  if (ch.count("knee_flexion"))
+    ch["knee_flexion_rate"] = derivative(t, lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate)));
+
+}
+
+}  // namespace
+
+std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                                          const std::vector<GapTrial>& sources, const SynthOptions& o) {
+  const auto [law, p] = makeSyntheticLaw(base, catalogue, o);
   std::mt19937_64 rng(o.seed);
   std::vector<GapTrial> out;
   for (const auto& src : sources) {
@@ -187,48 +251,7 @@ std::vector<GapTrial> makeSyntheticTrials(const identify::ContactLaw& base, cons
       const int n = g.getNumFrames();
       const double rate = n > 1 ? (n - 1) / (t.back() - t.front()) : 120.0;
       auto& ch = g.trial.channels;
-      // Smooth between-replicate variation: one offset for the flexion (the areas follow it through
-      // their flexion derivatives, as the model's areas do), an optional factor for all areas, one
-      // factor for the external load and the EMG.
-      const std::vector<double> xa = smoothNoise(n, rate, 0.15, rng), xf = smoothNoise(n, rate, 0.2, rng),
-                                xl = smoothNoise(n, rate, 0.15, rng);
-      std::vector<double> dtheta(n);
-      for (int i = 0; i < n; ++i) dtheta[i] = o.flexion_variation * xf[i];
-      std::vector<double> s_factor(n, 1.0);  // relative change of S, applied to the S@<x>mm channels
-      if (ch.count("dS_dflexion") && ch.count("S")) {
-        for (const std::string side : {"", "_medial", "_lateral"}) {
-          auto a = ch.find("S" + side), d = ch.find("dS" + side + "_dflexion");
-          if (a == ch.end() || d == ch.end()) continue;
-          for (int i = 0; i < n; ++i) {
-            const double before = a->second[i];
-            a->second[i] = std::max(0.05 * before, before + d->second[i] * dtheta[i]);
-            if (side.empty() && before > 0) s_factor[i] = a->second[i] / before;
-          }
-        }
-        for (auto& [name, v] : ch)
-          if (startsWith(name, "S@"))
-            for (int i = 0; i < n; ++i) v[i] *= s_factor[i];
-      }
-      for (auto& [name, v] : ch) {
-        if (isAreaChannel(name) || name == "dS_dflexion" || name == "dS_dap" || startsWith(name, "dS_medial_d") ||
-            startsWith(name, "dS_lateral_d")) {
-          if (o.area_variation > 0 && !endsWith(name, "_dt"))
-            for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.area_variation * xa[i]);
-        } else if (name == "knee_flexion") {
-          for (int i = 0; i < n; ++i) v[i] += dtheta[i];
-        } else if (startsWith(name, "GRF:") || startsWith(name, "EMG:")) {
-          for (int i = 0; i < n; ++i) v[i] *= std::max(0.3, 1 + o.load_variation * xl[i]);
-        }
-      }
-      // Rates consistent with the varied channels.
-      for (const char* s : {"S", "S_medial", "S_lateral"}) {
-        if (!ch.count(s)) continue;
-        const std::string d = std::string(s) == "S" ? "dS_dt" : "d" + std::string(s) + "_dt";
-        ch[d] = derivative(t, lowPass(ch[s], rate, std::min(10.0, 0.45 * rate)));
-      }
-      if (ch.count("knee_flexion"))
-        ch["knee_flexion_rate"] = derivative(t, lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate)));
-
+      varyReplicate(o, rate, rng, g);
       const identify::LawInputs in(law, ch, t, g.trial.name);
       Eigen::VectorXd f;
       law.calcForce(p, in, f);
@@ -453,19 +476,14 @@ BlindSuiteOptions getStandardBlindSuiteOptions(const identify::FitOptions& fit, 
   return bo;
 }
 
-BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
-                               const std::vector<GapTrial>& sources, const BlindSuiteOptions& bo) {
-  const auto t0 = std::chrono::steady_clock::now();
-  if (bo.seeds < 1)
-    throw InputError({}, "blind suite: expected at least 1 seed per case, got " + std::to_string(bo.seeds));
-  const std::vector<BlindCase> cases = bo.cases.empty() ? getDefaultBlindCases() : bo.cases;
-  BlindSuiteResult res;
-  for (const auto& e : catalogue) res.columns.push_back(e.getName());
-  res.columns.push_back("baseline");
-  res.columns.push_back("none of the candidates");
-  res.columns.push_back("undecided");
-  // What each case's injected component leaves once the baseline has absorbed what it can: the
-  // noise-free trials of seed 1, the baseline refitted to them, the RMS of its residual.
+namespace {
+
+// What each case's injected component leaves once the baseline has absorbed what it can (the noise-free
+// trials of seed 1, the baseline refitted to them, the RMS of its residual), and so the answer expected
+// of it; res.visible_rms, res.oracle and res.expected filled in.
+std::vector<std::string> expectAnswers(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                                       const std::vector<GapTrial>& sources, const std::vector<BlindCase>& cases,
+                                       const BlindSuiteOptions& bo, BlindSuiteResult& res) {
   std::vector<std::string> expected;
   for (size_t ci = 0; ci < cases.size(); ++ci) {
     const BlindCase& bc = cases[ci];
@@ -492,6 +510,100 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
     expected.push_back(!bc.effects.empty() && visible < bo.visible_floor ? std::string("baseline") : bc.expected);
     res.expected[bc.name] = expected.back();
   }
+  return expected;
+}
+
+// The injected component's size: the same trials without noise, with and without it (RMS, N).
+double injectedRms(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                   const std::vector<GapTrial>& sources, const SynthOptions& so) {
+  SynthOptions clean = so;
+  clean.noise_sd = clean.white_sd = 0;
+  SynthOptions plain = clean;
+  plain.effects.clear();
+  plain.outside.clear();
+  const auto with = makeSyntheticTrials(base, catalogue, sources, clean);
+  const auto without = makeSyntheticTrials(base, catalogue, sources, plain);
+  double ss = 0;
+  long n = 0;
+  for (size_t t = 0; t < with.size(); ++t)
+    for (size_t i = 0; i < with[t].trial.measured_force.size(); ++i) {
+      const double d = with[t].trial.measured_force[i] - without[t].trial.measured_force[i];
+      ss += d * d;
+      ++n;
+    }
+  return n ? std::sqrt(ss / n) : 0.0;
+}
+
+// The diagnosis's trace for --details: each step's screening and full fits, then the verdict with what
+// remains.
+void traceDiagnosis(const TargetDiagnosis& d, BlindOutcome& out) {
+  for (size_t step = 0; step < d.screening.size(); ++step) {
+    std::string line = "step " + std::to_string(step + 1) + ": screened";
+    for (size_t k = 0; k < d.screening[step].size() && k < 5; ++k)
+      line += " " + d.screening[step][k].effect + "(" + formatSignificant(d.screening[step][k].z, 3) + ")";
+    line += "; fitted";
+    for (const auto& cf : d.candidates)
+      if (cf.step == static_cast<int>(step) + 1)
+        line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
+                formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
+                formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
+                formatSignificant(100 * cf.whitened_improvement, 3) + "% (lb " +
+                formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), score t " +
+                formatSignificant(cf.score_t, 3) + " (" + formatSignificant(cf.score_critical, 3) + "), dBIC " +
+                formatSignificant(cf.d_bic, 3) + formatParameters(cf.parameters) +
+                (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
+    out.trace.push_back(line);
+  }
+  const StructureTest& st = d.structure;
+  out.trace.push_back(
+      "verdict: " + out.answer + " [" + d.verdict_class + "] (remaining structure: mean-gap p " +
+      formatSignificant(st.p_value, 3) + ", mean gap " + formatSignificant(st.systematic_gap, 3) + " N +- " +
+      formatSignificant(st.mean_uncertainty, 3) + " N; agnostic check " +
+      formatSignificant(100 * st.agnostic.reduction, 3) + "% (lb " +
+      formatSignificant(100 * st.agnostic.reduction_lower, 3) + "%), score t " +
+      formatSignificant(st.agnostic.score_t, 3) + " (" + formatSignificant(st.agnostic.score_critical, 3) +
+      "); noise floor " + formatSignificant(st.noise_floor.floor, 3) + " N of " +
+      formatSignificant(st.noise_floor.rmse, 3) + " N, excess " + formatSignificant(100 * st.noise_floor.excess, 3) +
+      "% [" + formatSignificant(100 * st.noise_floor.excess_lower, 3) + ", " +
+      formatSignificant(100 * st.noise_floor.excess_upper, 3) + "]; cycles p " +
+      formatSignificant(st.cycle_heterogeneity.p_value, 3) + ")");
+}
+
+// The injected size against its estimate at step 1 and the estimate's intervals (one injected effect).
+void recordEstimate(const BlindCase& bc, const TargetDiagnosis& d, BlindOutcome& out) {
+  if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {
+    const auto& [pname, truth] = *bc.effects[0].values.begin();
+    out.truth = truth;
+    for (const auto& cf : d.candidates) {
+      if (cf.step != 1 || cf.effect != bc.effects[0].effect) continue;
+      for (const auto& p : cf.parameters)
+        if (p.name == bc.effects[0].effect + "." + pname) {
+          out.has_estimate = true;
+          out.estimate = p.value;
+          out.ci = p.ci;
+          out.ci_jackknife = p.ci_jackknife;
+          out.covered = p.ci.isValid() && p.ci.lower <= truth && truth <= p.ci.upper;
+          out.covered_jackknife =
+              p.ci_jackknife.isValid() && p.ci_jackknife.lower <= truth && truth <= p.ci_jackknife.upper;
+        }
+    }
+  }
+}
+
+}  // namespace
+
+BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vector<Effect>& catalogue,
+                               const std::vector<GapTrial>& sources, const BlindSuiteOptions& bo) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (bo.seeds < 1)
+    throw InputError({}, "blind suite: expected at least 1 seed per case, got " + std::to_string(bo.seeds));
+  const std::vector<BlindCase> cases = bo.cases.empty() ? getDefaultBlindCases() : bo.cases;
+  BlindSuiteResult res;
+  for (const auto& e : catalogue) res.columns.push_back(e.getName());
+  res.columns.push_back("baseline");
+  res.columns.push_back("none of the candidates");
+  res.columns.push_back("undecided");
+  const std::vector<std::string> expected = expectAnswers(base, catalogue, sources, cases, bo, res);
   const int total = static_cast<int>(cases.size()) * bo.seeds;
   std::vector<BlindOutcome> outcomes(total);
   auto runOne = [&](int item) {
@@ -505,27 +617,11 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
     // Each case draws its own noise: one unlucky draw must not decide every case of a seed.
     so.seed = static_cast<unsigned long long>(seed) + 1000003ULL * ci;
     const std::vector<GapTrial> trials = makeSyntheticTrials(base, catalogue, sources, so);
-    // The injected component's size: the same trials without noise, with and without it.
-    SynthOptions clean = so;
-    clean.noise_sd = clean.white_sd = 0;
-    SynthOptions plain = clean;
-    plain.effects.clear();
-    plain.outside.clear();
-    const auto with = makeSyntheticTrials(base, catalogue, sources, clean);
-    const auto without = makeSyntheticTrials(base, catalogue, sources, plain);
-    double ss = 0;
-    long n = 0;
-    for (size_t t = 0; t < with.size(); ++t)
-      for (size_t i = 0; i < with[t].trial.measured_force.size(); ++i) {
-        const double d = with[t].trial.measured_force[i] - without[t].trial.measured_force[i];
-        ss += d * d;
-        ++n;
-      }
     BlindOutcome& out = outcomes[item];
     out.case_name = bc.name;
     out.expected = expected[ci];
     out.seed = static_cast<unsigned long long>(seed);
-    out.injected_rms = n ? std::sqrt(ss / n) : 0.0;
+    out.injected_rms = injectedRms(base, catalogue, sources, so);
     const GapReport rep = diagnose(base, catalogue, trials, bo.diagnosis);
     const TargetDiagnosis& d = rep.targets.front();
     out.verdict_class = d.verdict_class;
@@ -542,55 +638,10 @@ BlindSuiteResult runBlindSuite(const identify::ContactLaw& base, const std::vect
         out.correct || std::find(out.confusable_with_answer.begin(), out.confusable_with_answer.end(), out.expected) !=
                            out.confusable_with_answer.end();
     out.undecided = d.undecided.effect;
-    for (size_t step = 0; step < d.screening.size(); ++step) {
-      std::string line = "step " + std::to_string(step + 1) + ": screened";
-      for (size_t k = 0; k < d.screening[step].size() && k < 5; ++k)
-        line += " " + d.screening[step][k].effect + "(" + formatSignificant(d.screening[step][k].z, 3) + ")";
-      line += "; fitted";
-      for (const auto& cf : d.candidates)
-        if (cf.step == static_cast<int>(step) + 1)
-          line += " " + std::string(cf.accepted ? "*" : "") + cf.effect + "[" +
-                  formatSignificant(100 * cf.relative_improvement, 3) + "%, lb " +
-                  formatSignificant(100 * cf.one_sided_lower, 3) + "%, pw " +
-                  formatSignificant(100 * cf.whitened_improvement, 3) + "% (lb " +
-                  formatSignificant(100 * cf.whitened_one_sided_lower, 3) + "%), score t " +
-                  formatSignificant(cf.score_t, 3) + " (" + formatSignificant(cf.score_critical, 3) + "), dBIC " +
-                  formatSignificant(cf.d_bic, 3) + formatParameters(cf.parameters) +
-                  (cf.converged ? "" : ", not converged: " + join(cf.notes, "; ")) + "]";
-      out.trace.push_back(line);
-    }
-    const StructureTest& st = d.structure;
-    out.trace.push_back(
-        "verdict: " + out.answer + " [" + d.verdict_class + "] (remaining structure: sign-flip p " +
-        formatSignificant(st.p_value, 3) + ", mean gap " + formatSignificant(st.systematic_gap, 3) + " N +- " +
-        formatSignificant(st.mean_uncertainty, 3) + " N; agnostic check " +
-        formatSignificant(100 * st.agnostic.reduction, 3) + "% (lb " +
-        formatSignificant(100 * st.agnostic.reduction_lower, 3) + "%), score t " +
-        formatSignificant(st.agnostic.score_t, 3) + " (" + formatSignificant(st.agnostic.score_critical, 3) +
-        "); noise floor " + formatSignificant(st.noise_floor.floor, 3) + " N of " +
-        formatSignificant(st.noise_floor.rmse, 3) + " N, excess " + formatSignificant(100 * st.noise_floor.excess, 3) +
-        "% [" + formatSignificant(100 * st.noise_floor.excess_lower, 3) + ", " +
-        formatSignificant(100 * st.noise_floor.excess_upper, 3) + "]; cycles p " +
-        formatSignificant(st.cycle_heterogeneity.p_value, 3) + ")");
+    traceDiagnosis(d, out);
     out.rmse_baseline = d.baseline_rmse_heldout;
     out.rmse_final = d.shrinkage.front().rmse_final;
-    if (bc.effects.size() == 1 && !bc.effects[0].values.empty()) {
-      const auto& [pname, truth] = *bc.effects[0].values.begin();
-      out.truth = truth;
-      for (const auto& cf : d.candidates) {
-        if (cf.step != 1 || cf.effect != bc.effects[0].effect) continue;
-        for (const auto& p : cf.parameters)
-          if (p.name == bc.effects[0].effect + "." + pname) {
-            out.has_estimate = true;
-            out.estimate = p.value;
-            out.ci = p.ci;
-            out.ci_jackknife = p.ci_jackknife;
-            out.covered = p.ci.isValid() && p.ci.lower <= truth && truth <= p.ci.upper;
-            out.covered_jackknife =
-                p.ci_jackknife.isValid() && p.ci_jackknife.lower <= truth && truth <= p.ci_jackknife.upper;
-          }
-      }
-    }
+    recordEstimate(bc, d, out);
   };
   std::atomic<int> next{0}, done{0};
   std::mutex progress_mutex;

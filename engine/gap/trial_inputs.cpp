@@ -204,14 +204,25 @@ void setCycles(GapTrial& g, const std::vector<double>& starts_in, const std::vec
   }
 }
 
-GapTrial assembleTrial(const TrialSource& src) {
+namespace {
+
+// What one trial's files hold, read once.
+struct TrialFiles {
+  io::KneeForces kf;
+  io::C3dFile c3d;
+  io::Storage area, motion;
+  bool have_forces = false, have_c3d = false, have_motion = false;
+};
+
+std::string trialWho(const TrialSource& src) { return "trial '" + src.name + "'"; }
+
+// Checks that the trial's files exist (a missing one names the setup element that led to it: the
+// readers would name only the path) and reads them; the knee forces re-timed to the C3D's frames.
+TrialFiles readTrialFiles(const TrialSource& src, GapTrial& g) {
   const SourceLocation& where = src.where;
-  const std::string who = "trial '" + src.name + "'";
-  // Without a knee-force file the trial has no measured force (NaN): it can be predicted, not diagnosed.
-  const bool have_forces = !src.knee_forces.empty();
+  const std::string who = trialWho(src);
   if (src.contact_area.empty())
     throw InputError(where, who + ": expected a contact-area .sto (the contact-area tool's output), got none");
-  // A missing input names the setup element that led to it (the readers would name only the path).
   auto requireFile = [&](const std::string& path, const char* element, const char* what) {
     if (!path.empty() && !std::filesystem::exists(path))
       throw InputError({where.file, where.line, where.element + "/" + element},
@@ -222,23 +233,20 @@ GapTrial assembleTrial(const TrialSource& src) {
   requireFile(src.contact_area, "contact_area", "contact-area file");
   requireFile(src.kinematics, "kinematics", "kinematics file");
   requireFile(src.knee_loads, "knee_loads", "knee-load file");
-  GapTrial g;
-  g.activity = getActivityDefinition(src.activity).name;
-  g.trial.name = src.name;
-  g.trial.source = where;
-
-  io::KneeForces kf;
-  if (have_forces) kf = io::readKneeForces(src.knee_forces);
-  io::C3dFile c3d;
-  const bool have_c3d = !src.c3d.empty();
-  if (have_c3d) {
-    c3d = io::readC3d(src.c3d);
-    if (have_forces) {
-      kf = io::retimeToFrames(kf, c3d.first_frame, c3d.header.frame_rate);
+  TrialFiles f;
+  // Without a knee-force file the trial has no measured force (NaN): it can be predicted, not diagnosed.
+  f.have_forces = !src.knee_forces.empty();
+  if (f.have_forces) f.kf = io::readKneeForces(src.knee_forces);
+  f.have_c3d = !src.c3d.empty();
+  if (f.have_c3d) {
+    f.c3d = io::readC3d(src.c3d);
+    if (f.have_forces) {
+      f.kf = io::retimeToFrames(f.kf, f.c3d.first_frame, f.c3d.header.frame_rate);
       g.notes.push_back("knee forces re-timed to the frames of " + src.c3d);
     }
   }
-  const io::Storage area = io::readStorage(src.contact_area);
+  f.area = io::readStorage(src.contact_area);
+  const io::Storage& area = f.area;
   if (area.findColumn("time") < 0 || area.findColumn("S") < 0 || area.getNumRows() < 2)
     throw InputError({src.contact_area, 0, ""}, "contact-area file: expected columns time and S, got " +
                                                      std::to_string(area.labels.size()) + " column(s) and " +
@@ -252,78 +260,70 @@ GapTrial assembleTrial(const TrialSource& src) {
   if (g.interim_inputs)
     g.notes.push_back("INTERIM contact areas (" + src.contact_area +
                       "): a stand-in derived from the measured force, not the contact-area tool's output");
+  f.have_motion = !src.kinematics.empty();
+  if (f.have_motion) f.motion = io::readStorage(src.kinematics);
+  return f;
+}
 
-  io::Storage motion;
-  const bool have_motion = !src.kinematics.empty();
-  if (have_motion) motion = io::readStorage(src.kinematics);
-
-  // ---- common time base: the knee-force frames (else the area file's) inside every source's range
+// The common time base: the knee-force frames (else the area file's) inside every source's range.
+// Returns the interpolation tolerance (half a frame).
+double setTimeBase(const TrialSource& src, const TrialFiles& f, GapTrial& g) {
+  const io::Storage& area = f.area;
   const double at0 = area.data(0, area.findColumn("time")),
                at1 = area.data(area.getNumRows() - 1, area.findColumn("time"));
   std::vector<double> frames_in;
-  if (have_forces) {
-    frames_in = kf.time;
+  if (f.have_forces) {
+    frames_in = f.kf.time;
   } else {
     for (int i = 0; i < area.getNumRows(); ++i) frames_in.push_back(area.data(i, area.findColumn("time")));
     g.notes.push_back("no knee-force file: frames of the contact-area file, no measured force (prediction only)");
   }
   double lo = std::max({at0, frames_in.front(), src.time_range.begin});
   double hi = std::min({at1, frames_in.back(), src.time_range.end});
-  if (have_motion) {
-    lo = std::max(lo, motion.data(0, motion.findColumn("time")));
-    hi = std::min(hi, motion.data(motion.getNumRows() - 1, motion.findColumn("time")));
+  if (f.have_motion) {
+    lo = std::max(lo, f.motion.data(0, f.motion.findColumn("time")));
+    hi = std::min(hi, f.motion.data(f.motion.getNumRows() - 1, f.motion.findColumn("time")));
   }
   const double half = 0.5 / frameRate(frames_in);
   for (double x : frames_in)
     if (x >= lo - half && x <= hi + half) g.trial.time.push_back(x);
   if (g.trial.time.size() < 10)
-    throw InputError(where, who + ": expected the " + (have_forces ? "knee forces" : "frames") + " (" +
-                                fmt(frames_in.front()) + "-" + fmt(frames_in.back()) +
-                                " s), the contact areas (" + fmt(at0) + "-" + fmt(at1) + " s)" +
-                                (have_motion ? ", the kinematics" : std::string()) +
-                                " and the time range to overlap by at least 10 frames, got " +
-                                std::to_string(g.trial.time.size()));
+    throw InputError(src.where, trialWho(src) + ": expected the " + (f.have_forces ? "knee forces" : "frames") + " (" +
+                                    fmt(frames_in.front()) + "-" + fmt(frames_in.back()) +
+                                    " s), the contact areas (" + fmt(at0) + "-" + fmt(at1) + " s)" +
+                                    (f.have_motion ? ", the kinematics" : std::string()) +
+                                    " and the time range to overlap by at least 10 frames, got " +
+                                    std::to_string(g.trial.time.size()));
+  return half;
+}
+
+// The storage's columns named @p prefix* (every column but time when empty) as channels at the
+// trial's frames, each finite there.
+void addStorageChannels(const io::Storage& st, const std::string& file, const std::string& prefix, GapTrial& g) {
   const std::vector<double>& t = g.trial.time;
-  const int n = static_cast<int>(t.size());
-  const double rate = frameRate(t);
-  auto& ch = g.trial.channels;
-
-  // ---- measured forces
-  if (have_forces) {
-    g.trial.measured_force = interpolate(kf.time, kf.total, t, half);
-    g.medial = interpolate(kf.time, kf.medial, t, half);
-    g.lateral = interpolate(kf.time, kf.lateral, t, half);
-  } else {
-    g.trial.measured_force = g.medial = g.lateral = std::vector<double>(n, kNaN);
-  }
-
-  // ---- contact-area channels: every column of the file
-  for (size_t c = 0; c < area.labels.size(); ++c) {
-    const std::string& lab = area.labels[c];
-    if (lab == "time") continue;
-    std::vector<double> v = storageColumn(area, static_cast<int>(c), t);
-    if (lab == "knee_flexion" && area.in_degrees)
+  for (size_t c = 0; c < st.labels.size(); ++c) {
+    const std::string& lab = st.labels[c];
+    if (lab == "time" || lab.rfind(prefix, 0) != 0) continue;
+    std::vector<double> v = storageColumn(st, static_cast<int>(c), t);
+    if (lab == "knee_flexion" && st.in_degrees)
       for (double& x : v) x *= M_PI / 180;
     for (double x : v)
       if (!std::isfinite(x))
-        throw InputError({src.contact_area, 0, lab}, "column '" + lab + "': expected finite values over " +
-                                                         fmt(t.front()) + "-" + fmt(t.back()) + " s, got NaN");
-    ch[lab] = std::move(v);
+        throw InputError({file, 0, lab}, "column '" + lab + "': expected finite values over " + fmt(t.front()) +
+                                             "-" + fmt(t.back()) + " s, got NaN");
+    g.trial.channels[lab] = std::move(v);
   }
-  if (!src.knee_loads.empty()) {
-    const io::Storage loads = io::readStorage(src.knee_loads);
-    for (size_t c = 0; c < loads.labels.size(); ++c) {
-      const std::string& lab = loads.labels[c];
-      if (lab.rfind("knee_", 0) != 0) continue;
-      std::vector<double> v = storageColumn(loads, static_cast<int>(c), t);
-      for (double x : v)
-        if (!std::isfinite(x))
-          throw InputError({src.knee_loads, 0, lab}, "column '" + lab + "': expected finite values over " + fmt(t.front()) +
-                                                         "-" + fmt(t.back()) + " s, got NaN");
-      ch[lab] = std::move(v);
-    }
-  }
-  for (const auto& [k, v] : area.header)
+}
+
+// Every column of the contact-area file, the knee's net loads, the threshold and the areas' rates.
+void addAreaChannels(const TrialSource& src, const TrialFiles& f, GapTrial& g) {
+  auto& ch = g.trial.channels;
+  const std::vector<double>& t = g.trial.time;
+  const int n = static_cast<int>(t.size());
+  const double rate = frameRate(t);
+  addStorageChannels(f.area, src.contact_area, "", g);
+  if (!src.knee_loads.empty()) addStorageChannels(io::readStorage(src.knee_loads), src.knee_loads, "knee_", g);
+  for (const auto& [k, v] : f.area.header)
     if (k == "threshold" || k == "threshold_m") {
       double h;
       if (tryParseDouble(v, h)) ch["S_threshold"] = std::vector<double>(n, h);
@@ -336,29 +336,35 @@ GapTrial assembleTrial(const TrialSource& src) {
       g.notes.push_back(d + ": derivative of " + s + " low-passed at 10 Hz (not in the contact-area file)");
     }
   }
+}
 
-  // ---- flexion
+// knee_flexion from the chosen source (the area file, the kinematics or the goniometer).
+void addFlexion(const TrialSource& src, const TrialFiles& f, double half, GapTrial& g) {
+  const SourceLocation& where = src.where;
+  const std::string who = trialWho(src);
+  auto& ch = g.trial.channels;
+  const std::vector<double>& t = g.trial.time;
   std::string fsrc = src.flexion_source;
-  if (fsrc == "auto") fsrc = ch.count("knee_flexion") ? "area" : have_motion ? "kinematics" : "gon";
+  if (fsrc == "auto") fsrc = ch.count("knee_flexion") ? "area" : f.have_motion ? "kinematics" : "gon";
   if (fsrc == "area") {
     if (!ch.count("knee_flexion"))
       throw InputError(where, who + ": flexion source 'area': expected a knee_flexion column in " + src.contact_area);
     g.notes.push_back("knee_flexion from the contact-area file");
   } else if (fsrc == "kinematics") {
-    if (!have_motion) throw InputError(where, who + ": flexion source 'kinematics': expected a kinematics file, got none");
-    const int c = motion.findColumn(src.flexion_column);
+    if (!f.have_motion) throw InputError(where, who + ": flexion source 'kinematics': expected a kinematics file, got none");
+    const int c = f.motion.findColumn(src.flexion_column);
     if (c < 0)
       throw InputError({src.kinematics, 0, ""}, "kinematics: expected a column '" + src.flexion_column + "', got " +
-                                                    std::to_string(motion.labels.size()) + " other columns");
-    std::vector<double> v = storageColumn(motion, c, t);
-    if (motion.in_degrees)
+                                                    std::to_string(f.motion.labels.size()) + " other columns");
+    std::vector<double> v = storageColumn(f.motion, c, t);
+    if (f.motion.in_degrees)
       for (double& x : v) x *= M_PI / 180;
     ch["knee_flexion"] = v;
     g.notes.push_back("knee_flexion from " + src.kinematics + " column " + src.flexion_column);
   } else if (fsrc == "gon") {
-    if (!have_forces)
+    if (!f.have_forces)
       throw InputError(where, who + ": flexion source 'gon': expected a knee-force file with its GON column, got none");
-    std::vector<double> gon = interpolate(kf.time, kf.goniometer, t, half);
+    std::vector<double> gon = interpolate(f.kf.time, f.kf.goniometer, t, half);
     for (double x : gon)
       if (!std::isfinite(x))
         throw InputError({src.knee_forces, 0, "GON"}, who + ": flexion from GON: expected a GON column, got none or NaN");
@@ -370,11 +376,20 @@ GapTrial assembleTrial(const TrialSource& src) {
   } else {
     throw InputError(where, who + ": flexion source: expected auto, area, kinematics or gon, got '" + fsrc + "'");
   }
+}
+
+// Channels derived from the flexion: trial_time, the flexion rate and, where the area file has no
+// exact ones, dS/dflexion estimated from the rates. Returns the low-passed flexion (for the events).
+std::vector<double> addFlexionDerived(GapTrial& g) {
+  auto& ch = g.trial.channels;
+  const std::vector<double>& t = g.trial.time;
+  const int n = static_cast<int>(t.size());
+  const double rate = frameRate(t);
   // Time since the recording's first frame: a drift over the recording, whichever cycles a fit sees.
   std::vector<double> since(n);
   for (int i = 0; i < n; ++i) since[i] = t[i] - t.front();
   ch["trial_time"] = std::move(since);
-  const std::vector<double> flex_smooth = lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate));
+  std::vector<double> flex_smooth = lowPass(ch["knee_flexion"], rate, std::min(6.0, 0.45 * rate));
   ch["knee_flexion_rate"] = derivative(t, flex_smooth);
   for (const std::string side : {"", "_medial", "_lateral"}) {
     const std::string target = "dS" + side + "_dflexion", rate_name = "dS" + side + "_dt";
@@ -393,96 +408,107 @@ GapTrial assembleTrial(const TrialSource& src) {
     g.notes.push_back(target + " estimated from the rates " + rate_name +
                       " and dtheta/dt (not in the contact-area file)");
   }
+  return flex_smooth;
+}
 
-  // ---- force plates and EMG
-  if (have_c3d) {
-    const double arate = c3d.analog.rate;
-    // Per foot: vertical force and the horizontal components along the lab's x and y axes.
-    const size_t na = c3d.analog.time.size();
-    std::vector<double> right(na, 0.0), left(na, 0.0), right_x(na, 0.0), right_y(na, 0.0), left_x(na, 0.0),
-        left_y(na, 0.0);
-    bool any_right = false;
-    for (int p = 0; p < static_cast<int>(c3d.plates.size()); ++p) {
-      const io::PlateWrench w = io::calcPlateWrench(c3d, p);
-      std::vector<double> fz(w.force.size());
-      double sum_t = 0, cnt = 0, tmin = 1e300, tmax = -1e300;
-      Eigen::Vector2d cop = Eigen::Vector2d::Zero();
-      for (size_t i = 0; i < w.force.size(); ++i) {
-        fz[i] = std::max(0.0, w.force[i].z());
-        if (fz[i] > 50 && w.cop[i].allFinite()) {
-          cop += w.cop[i].head<2>();
-          cnt += 1;
-          sum_t += c3d.analog.time[i];
-          tmin = std::min(tmin, c3d.analog.time[i]);
-          tmax = std::max(tmax, c3d.analog.time[i]);
-        }
+// Per foot, the plates' vertical and horizontal forces at the trial's frames (each plate assigned to
+// the foot whose heel and toe markers lie nearest its centre of pressure), and the EMG envelopes.
+void addPlatesAndEmg(const io::C3dFile& c3d, double half, GapTrial& g) {
+  auto& ch = g.trial.channels;
+  const std::vector<double>& t = g.trial.time;
+  const int n = static_cast<int>(t.size());
+  const double arate = c3d.analog.rate;
+  // Per foot: vertical force and the horizontal components along the lab's x and y axes.
+  const size_t na = c3d.analog.time.size();
+  std::vector<double> right(na, 0.0), left(na, 0.0), right_x(na, 0.0), right_y(na, 0.0), left_x(na, 0.0),
+      left_y(na, 0.0);
+  bool any_right = false;
+  for (int p = 0; p < static_cast<int>(c3d.plates.size()); ++p) {
+    const io::PlateWrench w = io::calcPlateWrench(c3d, p);
+    std::vector<double> fz(w.force.size());
+    double cnt = 0, tmin = 1e300, tmax = -1e300;
+    Eigen::Vector2d cop = Eigen::Vector2d::Zero();
+    for (size_t i = 0; i < w.force.size(); ++i) {
+      fz[i] = std::max(0.0, w.force[i].z());
+      if (fz[i] > 50 && w.cop[i].allFinite()) {
+        cop += w.cop[i].head<2>();
+        cnt += 1;
+        tmin = std::min(tmin, c3d.analog.time[i]);
+        tmax = std::max(tmax, c3d.analog.time[i]);
       }
-      if (cnt == 0) continue;
-      cop /= cnt;
-      Eigen::Vector2d rp, lp;
-      const bool hr = meanMarkerPosition(c3d, {"RHeel", "RToe"}, tmin, tmax, rp);
-      const bool hl = meanMarkerPosition(c3d, {"LHeel", "LToe"}, tmin, tmax, lp);
-      const bool is_right = hr && (!hl || (cop - rp).norm() < (cop - lp).norm());
-      std::vector<double> f_frames = interpolate(c3d.analog.time, lowPass(fz, arate, 30.0), t, half);
-      for (double& x : f_frames)
-        if (!std::isfinite(x)) x = 0.0;
-      ch["GRF:plate" + std::to_string(p + 1)] = f_frames;
-      std::vector<double>& dst = is_right ? right : left;
-      std::vector<double>& dst_x = is_right ? right_x : left_x;
-      std::vector<double>& dst_y = is_right ? right_y : left_y;
-      for (size_t i = 0; i < fz.size(); ++i) {
-        dst[i] += fz[i];
-        // Horizontal force only while the foot loads the plate (an unloaded plate's offsets are noise).
-        if (fz[i] > 0 && w.force[i].allFinite()) dst_x[i] += w.force[i].x(), dst_y[i] += w.force[i].y();
-      }
-      any_right = any_right || is_right;
-      g.notes.push_back("force plate " + std::to_string(p + 1) + " loaded " + fmt(tmin) + "-" + fmt(tmax) + " s: " +
-                        (is_right ? "right (instrumented) foot" : "left foot") +
-                        (hr ? "" : " (no right-foot markers: assumed left)"));
     }
-    if (any_right) {
-      ch["GRF:vertical"] = interpolate(c3d.analog.time, lowPass(right, arate, 30.0), t, half);
-      ch["GRF:vertical_left"] = interpolate(c3d.analog.time, lowPass(left, arate, 30.0), t, half);
-      ch["GRF:x"] = interpolate(c3d.analog.time, lowPass(right_x, arate, 30.0), t, half);
-      ch["GRF:y"] = interpolate(c3d.analog.time, lowPass(right_y, arate, 30.0), t, half);
-      ch["GRF:x_left"] = interpolate(c3d.analog.time, lowPass(left_x, arate, 30.0), t, half);
-      ch["GRF:y_left"] = interpolate(c3d.analog.time, lowPass(left_y, arate, 30.0), t, half);
-      for (auto* v : {&ch["GRF:vertical"], &ch["GRF:vertical_left"], &ch["GRF:x"], &ch["GRF:y"], &ch["GRF:x_left"],
-                      &ch["GRF:y_left"]})
-        for (double& x : *v)
-          if (!std::isfinite(x)) x = 0.0;
+    if (cnt == 0) continue;
+    cop /= cnt;
+    Eigen::Vector2d rp, lp;
+    const bool hr = meanMarkerPosition(c3d, {"RHeel", "RToe"}, tmin, tmax, rp);
+    const bool hl = meanMarkerPosition(c3d, {"LHeel", "LToe"}, tmin, tmax, lp);
+    const bool is_right = hr && (!hl || (cop - rp).norm() < (cop - lp).norm());
+    std::vector<double> f_frames = interpolate(c3d.analog.time, lowPass(fz, arate, 30.0), t, half);
+    for (double& x : f_frames)
+      if (!std::isfinite(x)) x = 0.0;
+    ch["GRF:plate" + std::to_string(p + 1)] = f_frames;
+    std::vector<double>& dst = is_right ? right : left;
+    std::vector<double>& dst_x = is_right ? right_x : left_x;
+    std::vector<double>& dst_y = is_right ? right_y : left_y;
+    for (size_t i = 0; i < fz.size(); ++i) {
+      dst[i] += fz[i];
+      // Horizontal force only while the foot loads the plate (an unloaded plate's offsets are noise).
+      if (fz[i] > 0 && w.force[i].allFinite()) dst_x[i] += w.force[i].x(), dst_y[i] += w.force[i].y();
     }
-    for (int c = 0; c < c3d.analog.getNumChannels(); ++c) {
-      const std::string& lab = c3d.analog.labels[c];
-      const std::string desc = toLower(c3d.analog.descriptions[c]);
-      if (desc.find("emg") == std::string::npos || lab == "load cell" || lab == "goniometer") continue;
-      std::vector<double> raw(c3d.analog.data.rows());
-      for (Eigen::Index i = 0; i < c3d.analog.data.rows(); ++i) raw[i] = c3d.analog.data(i, c);
-      std::vector<double> env = interpolate(c3d.analog.time, emgEnvelope(raw, arate), t, half);
-      for (double& x : env)
+    any_right = any_right || is_right;
+    g.notes.push_back("force plate " + std::to_string(p + 1) + " loaded " + fmt(tmin) + "-" + fmt(tmax) + " s: " +
+                      (is_right ? "right (instrumented) foot" : "left foot") +
+                      (hr ? "" : " (no right-foot markers: assumed left)"));
+  }
+  if (any_right) {
+    const std::vector<std::pair<const char*, const std::vector<double>*>> feet = {
+        {"GRF:vertical", &right}, {"GRF:vertical_left", &left}, {"GRF:x", &right_x},
+        {"GRF:y", &right_y},      {"GRF:x_left", &left_x},     {"GRF:y_left", &left_y}};
+    for (const auto& [name, v] : feet) {
+      std::vector<double> at = interpolate(c3d.analog.time, lowPass(*v, arate, 30.0), t, half);
+      for (double& x : at)
         if (!std::isfinite(x)) x = 0.0;
-      ch["EMG:" + lab] = env;
-      const auto [mn, mx] = std::minmax_element(raw.begin(), raw.end());
-      g.trial.channels["EMG_range:" + lab] = std::vector<double>(n, *mx - *mn);  // removed by normalizeEmg
+      ch[name] = std::move(at);
     }
   }
-
-  if (!have_c3d && have_forces && src.knee_forces_grf_scale > 0) {
-    std::vector<double> grf = interpolate(kf.time, kf.grfz, t, half);
-    bool finite = true;
-    for (double& x : grf) {
-      finite = finite && std::isfinite(x);
-      x = std::max(0.0, x * src.knee_forces_grf_scale);
-    }
-    if (!finite)
-      throw InputError({src.knee_forces, 0, "GRFz"}, who + ": GRF from the knee forces: expected a GRFz (or GRF) "
-                                                           "column with finite values, got none or NaN");
-    ch["GRF:vertical"] = grf;
-    g.notes.push_back("GRF:vertical from the knee-force file's GRFz column x " + fmt(src.knee_forces_grf_scale) +
-                      " N (force plate 1's vertical force; assumed under the instrumented foot)");
+  for (int c = 0; c < c3d.analog.getNumChannels(); ++c) {
+    const std::string& lab = c3d.analog.labels[c];
+    const std::string desc = toLower(c3d.analog.descriptions[c]);
+    if (desc.find("emg") == std::string::npos || lab == "load cell" || lab == "goniometer") continue;
+    std::vector<double> raw(c3d.analog.data.rows());
+    for (Eigen::Index i = 0; i < c3d.analog.data.rows(); ++i) raw[i] = c3d.analog.data(i, c);
+    std::vector<double> env = interpolate(c3d.analog.time, emgEnvelope(raw, arate), t, half);
+    for (double& x : env)
+      if (!std::isfinite(x)) x = 0.0;
+    ch["EMG:" + lab] = env;
+    const auto [mn, mx] = std::minmax_element(raw.begin(), raw.end());
+    ch["EMG_range:" + lab] = std::vector<double>(n, *mx - *mn);  // removed by normalizeEmg
   }
+}
 
-  // ---- events and cycles
+// GRF:vertical from the knee-force file's GRFz column (trials without a C3D).
+void addGrfFromKneeForces(const TrialSource& src, const TrialFiles& f, double half, GapTrial& g) {
+  std::vector<double> grf = interpolate(f.kf.time, f.kf.grfz, g.trial.time, half);
+  bool finite = true;
+  for (double& x : grf) {
+    finite = finite && std::isfinite(x);
+    x = std::max(0.0, x * src.knee_forces_grf_scale);
+  }
+  if (!finite)
+    throw InputError({src.knee_forces, 0, "GRFz"}, trialWho(src) + ": GRF from the knee forces: expected a GRFz (or "
+                                                                   "GRF) column with finite values, got none or NaN");
+  g.trial.channels["GRF:vertical"] = grf;
+  g.notes.push_back("GRF:vertical from the knee-force file's GRFz column x " + fmt(src.knee_forces_grf_scale) +
+                    " N (force plate 1's vertical force; assumed under the instrumented foot)");
+}
+
+// The cycles, from the events the setup names (auto: plates for gait and stairs, flexion for a chair
+// rise, else the knee force).
+void findCycles(const TrialSource& src, bool have_forces, const std::vector<double>& flex_smooth, GapTrial& g) {
+  const SourceLocation& where = src.where;
+  const std::string who = trialWho(src);
+  const auto& ch = g.trial.channels;
+  const std::vector<double>& t = g.trial.time;
   std::string ev = src.events;
   if (ev == "auto") {
     if ((g.activity == "gait" || g.activity == "stair") && ch.count("GRF:vertical")) ev = "plates";
@@ -493,13 +519,14 @@ GapTrial assembleTrial(const TrialSource& src) {
   if (ev == "plates") {
     if (!ch.count("GRF:vertical"))
       throw InputError(where, who + ": events from force plates: expected a C3D with a plate under the right foot");
-    const auto& f = ch["GRF:vertical"];
+    const auto& f = ch.at("GRF:vertical");
     starts = findCrossings(t, f, 20.0, 10.0, true, 0.3);
     mids = findCrossings(t, f, 20.0, 10.0, false, 0.3);
     g.event_source = "force plates";
   } else if (ev == "force") {
     if (!have_forces)
       throw InputError(where, who + ": events from the knee force: expected a knee-force file, got none");
+    const double rate = frameRate(t);
     const std::vector<double> f = lowPass(g.trial.measured_force, rate, std::min(10.0, 0.45 * rate));
     const double p10 = percentileOf(f, 0.1), p90 = percentileOf(f, 0.9), lvl = p10 + 0.4 * (p90 - p10);
     starts = findCrossings(t, f, lvl, 0.15 * (p90 - p10), true, 0.4);
@@ -519,6 +546,31 @@ GapTrial assembleTrial(const TrialSource& src) {
   }
   setCycles(g, starts, mids);
   g.notes.push_back(std::to_string(g.cycles.size()) + " cycle(s) from " + g.event_source + " events");
+}
+
+}  // namespace
+
+GapTrial assembleTrial(const TrialSource& src) {
+  GapTrial g;
+  g.activity = getActivityDefinition(src.activity).name;
+  g.trial.name = src.name;
+  g.trial.source = src.where;
+  const TrialFiles f = readTrialFiles(src, g);
+  const double half = setTimeBase(src, f, g);
+  const int n = g.getNumFrames();
+  if (f.have_forces) {
+    g.trial.measured_force = interpolate(f.kf.time, f.kf.total, g.trial.time, half);
+    g.medial = interpolate(f.kf.time, f.kf.medial, g.trial.time, half);
+    g.lateral = interpolate(f.kf.time, f.kf.lateral, g.trial.time, half);
+  } else {
+    g.trial.measured_force = g.medial = g.lateral = std::vector<double>(n, kNaN);
+  }
+  addAreaChannels(src, f, g);
+  addFlexion(src, f, half, g);
+  const std::vector<double> flex_smooth = addFlexionDerived(g);
+  if (f.have_c3d) addPlatesAndEmg(f.c3d, half, g);
+  if (!f.have_c3d && f.have_forces && src.knee_forces_grf_scale > 0) addGrfFromKneeForces(src, f, half, g);
+  findCycles(src, f.have_forces, flex_smooth, g);
   return g;
 }
 
