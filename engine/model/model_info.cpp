@@ -44,6 +44,27 @@ std::string countByCategory(const std::vector<IgnoredComponent>& items) {
   return out;
 }
 
+/// The muscles and coordinate actuators kneesim simulates (paths and moment arms; forces in static
+/// optimization and joint reaction), so the listing says what is used, not only what is left out.
+void printForces(const Model& m, std::ostream& os) {
+  if (!m.muscles.empty()) {
+    os << plural(m.muscles.size(), "muscle")
+       << " (paths, lengths and moment arms; forces in static optimization and joint reaction):\n";
+    for (const Muscle& mu : m.muscles)
+      os << "  " << std::left << std::setw(24) << mu.name << std::right << " " << mu.type << ", max isometric force "
+         << mu.max_isometric_force << " N, " << plural(mu.path.points.size(), "path point")
+         << (mu.path.wraps.empty() ? "" : ", " + plural(mu.path.wraps.size(), "wrap"))
+         << (mu.enabled ? "" : " (disabled)") << "\n";
+  }
+  if (!m.actuators.empty()) {
+    os << plural(m.actuators.size(), "coordinate actuator") << " (static optimization):\n";
+    for (const CoordinateActuator& a : m.actuators)
+      os << "  " << std::left << std::setw(24) << a.name << std::right << " on "
+         << (a.coordinate >= 0 ? m.coordinates[a.coordinate].name : std::string("?")) << ", optimal force "
+         << a.optimal_force << (a.enabled ? "" : " (disabled)") << "\n";
+  }
+}
+
 }  // namespace
 
 std::string describeIgnoredKinematics(const Model& model) {
@@ -111,6 +132,8 @@ void printModelInfo(const Model& m, std::ostream& os) {
   for (const Marker& mk : m.markers)
     os << "  " << std::left << std::setw(24) << mk.name << std::right << " on " << m.bodies[mk.body].name << " at "
        << mk.p_BM.x() << " " << mk.p_BM.y() << " " << mk.p_BM.z() << (mk.fixed ? " (fixed)" : "") << "\n";
+
+  printForces(m, os);
 
   if (m.ignored.empty()) {
     os << "every component is simulated\n";

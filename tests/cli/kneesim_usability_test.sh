@@ -32,6 +32,11 @@ for needle in "format: OpenSim document version 40000" "7 bodies besides ground"
               "every component is simulated"; do
   grep -qF -- "$needle" "$tmp/info" || fail "model info lacks '$needle'"
 done
+# ... the muscles it simulates (arm26: 6 Thelen2003 muscles, TRIlong over 3 wraps) ...
+"$exe" model info "$data/opensim-dynamics-tests/so/arm26.osim" >"$tmp/info" 2>&1
+grep -qF "6 muscles (paths, lengths and moment arms; forces in static optimization and joint reaction):" "$tmp/info" \
+  && grep -qF "TRIlong                  Thelen2003Muscle, max isometric force 798.52 N, 5 path points, 3 wraps" "$tmp/info" \
+  || fail "model info does not list arm26's muscles: $(grep -i muscle "$tmp/info" | head -3)"
 # ... and every component kept out, with its type; the ones that pose the model are flagged.
 "$exe" model info "$src/tests/model/corpus/testMocoMetabolics_hanging_muscle_40600.osim" >"$tmp/info" 2>&1
 grep -qF "muscle                   DeGrooteFregly2016Muscle (muscle)" "$tmp/info" || fail "model info: $(tail -3 "$tmp/info")"
