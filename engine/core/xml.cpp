@@ -4,6 +4,7 @@
 
 #include <tinyxml2.h>
 
+#include "core/error.hpp"
 #include "core/strings.hpp"
 
 namespace kneesim::xml {
@@ -131,6 +132,23 @@ std::unique_ptr<Document> Document::parse(const std::string& text, const std::st
 }
 
 Node Document::root() const { return Node(this, doc_->RootElement()); }
+
+namespace {
+// The element behind @p n, mutable: @p n must point into @p doc (Nodes are read-only views).
+tinyxml2::XMLElement* mutableElement(const Document* doc, const Node& n) {
+  KNEESIM_ASSERT(n && n.document() == doc);
+  return const_cast<tinyxml2::XMLElement*>(n.raw());
+}
+}  // namespace
+
+void Document::moveChildren(const Node& from, const Node& to) {
+  tinyxml2::XMLElement* f = mutableElement(this, from);
+  tinyxml2::XMLElement* t = mutableElement(this, to);
+  // InsertEndChild unlinks a node that is already in the document before inserting it.
+  while (tinyxml2::XMLElement* c = f->FirstChildElement()) t->InsertEndChild(c);
+}
+
+void Document::rename(const Node& el, const std::string& tag) { mutableElement(this, el)->SetName(tag.c_str()); }
 
 Node requireSetupElement(const Document& doc, const char* tag) {
   const Node root = doc.root();

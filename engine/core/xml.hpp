@@ -95,6 +95,13 @@ class Document {
   /// The file path or label given when loading.
   const std::string& getPath() const { return path_; }
 
+  /// Moves every child element of @p from, in order, to the end of @p to's children (both
+  /// elements of this document), as readers that upgrade an old layout the way OpenSim does need.
+  /// The moved elements keep their line numbers.
+  void moveChildren(const Node& from, const Node& to);
+  /// Renames element @p el (of this document) to @p tag.
+  void rename(const Node& el, const std::string& tag);
+
  private:
   Document() = default;
   std::string path_;

@@ -39,11 +39,12 @@ std::shared_ptr<Model> OsimReader::read() {
   }
   // OpenSim 1.x kept the bodies, joints and coordinates inside a <DynamicsEngine> (SimbodyBody,
   // SimbodyJoint with a DofSet): a layout kneesim does not read, said as such rather than as a
-  // missing BodySet.
+  // missing BodySet. (Format 10600's DynamicsEngine was unwrapped by upgradeFormat10600.)
   if (!model_el.child("BodySet") && !model_el.child("Ground"))
     if (Node engine = model_el.child("DynamicsEngine"))
       engine.fail("expected the BodySet of a model of format 10901 or later, got OpenSim 1.x's <DynamicsEngine> "
-                  "layout (format " + std::to_string(m_->format_version) + "), which kneesim does not read");
+                  "layout (format " + std::to_string(m_->format_version) + "), which kneesim does not read "
+                  "(nor does OpenSim 4, which unwraps a DynamicsEngine only in files of format 10600)");
   m_->name = model_el.nameAttr();
   m_->source_file = label_;
   m_->gravity = model_el.childVec3("gravity", m_->gravity);
@@ -100,8 +101,30 @@ void OsimReader::ignore(const Node& item, const std::string& set_tag) {
 
 }  // namespace osim
 
+namespace {
+
+// OpenSim 1.6's files (format 10600) keep the bodies (4.x-era Body elements with their joints),
+// constraints, coordinates and markers in <DynamicsEngine><SimbodyEngine>, and the actuators in an
+// <ActuatorSet>. OpenSim 4 reads them after moving the SimbodyEngine's children into the model and
+// renaming ActuatorSet to ForceSet (Model::updateFromXMLNode, for format 10600 only); so does this.
+void upgradeFormat10600(xml::Document& doc) {
+  const xml::Node root = doc.root();
+  if (root.name() != "OpenSimDocument") return;
+  double version = 0;
+  if (!tryParseDouble(root.attr("Version").value_or(""), version) || version != 10600) return;
+  const xml::Node model_el = root.child("Model");
+  if (!model_el) return;  // the reader names what is missing
+  if (const xml::Node engine = model_el.child("DynamicsEngine")) {
+    if (const xml::Node simbody = engine.child("SimbodyEngine")) doc.moveChildren(simbody, model_el);
+  }
+  if (const xml::Node actuators = model_el.child("ActuatorSet")) doc.rename(actuators, "ForceSet");
+}
+
+}  // namespace
+
 ModelPtr parseOsim(const std::string& text, const std::string& label) {
   const auto doc = xml::Document::parse(text, label);
+  upgradeFormat10600(*doc);
   osim::OsimReader reader(*doc, label);
   return reader.read();
 }

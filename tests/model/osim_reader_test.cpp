@@ -375,6 +375,53 @@ TEST(OsimReader, DynamicsEngineLayoutOfOpenSim1IsNamed) {
       << e;
 }
 
+// OpenSim 1.6's layout (format 10600, as opensim-core's Tools/Test/snowboard10600.osim): 4.x-era
+// Bodies with nested joints, a MarkerSet and gravity inside <DynamicsEngine><SimbodyEngine>, the
+// actuators in an <ActuatorSet>. OpenSim 4 moves the SimbodyEngine's children into the model and
+// reads the ActuatorSet as the ForceSet; so does kneesim.
+TEST(OsimReader, DynamicsEngineOfFormat10600IsUnwrapped) {
+  const std::string text =
+      "<?xml version=\"1.0\"?>\n<OpenSimDocument Version=\"10600\">\n<Model name=\"m\">\n"
+      "<ActuatorSet name=\"\"><objects><CoordinateActuator name=\"tau\"><coordinate> q </coordinate>"
+      "<optimal_force> 2 </optimal_force></CoordinateActuator></objects></ActuatorSet>\n"
+      "<DynamicsEngine>\n<SimbodyEngine name=\"default\">\n<gravity> 0 -9.5 0 </gravity>\n"
+      "<BodySet name=\"\"><objects>\n"
+      "<Body name=\"ground\"><mass> 0 </mass><Joint/></Body>\n"
+      "<Body name=\"b\"><WrapObjectSet name=\"\"><objects/><groups/></WrapObjectSet><mass> 2 </mass>"
+      "<mass_center> 0 -0.5 0 </mass_center><inertia_xx> 0.1 </inertia_xx><inertia_yy> 0.1 </inertia_yy>"
+      "<inertia_zz> 0.1 </inertia_zz>\n<Joint><CustomJoint name=\"j\"><parent_body> ground </parent_body>"
+      "<location_in_parent> 0 1 0 </location_in_parent><orientation_in_parent> 0 0 0 </orientation_in_parent>"
+      "<location> 0 0.5 0 </location><orientation> 0 0 0 </orientation>\n"
+      "<CoordinateSet name=\"\"><objects><Coordinate name=\"q\"><default_value> 0 </default_value>"
+      "<tolerance> 1e-8 </tolerance><stiffness> 0 </stiffness><range> -1 1 </range><keys> q_key </keys>"
+      "<clamped> true </clamped><locked> false </locked><restraint_function/><min_restraint_function/>"
+      "<max_restraint_function/><restraint_active> false </restraint_active><prescribed_function/>"
+      "</Coordinate></objects><groups/></CoordinateSet>\n"
+      "<TransformAxisSet name=\"\"><objects><TransformAxis name=\"r1\"><function/><coordinate> q </coordinate>"
+      "<is_rotation> true </is_rotation><axis> 0 0 1 </axis></TransformAxis></objects><groups/></TransformAxisSet>"
+      "</CustomJoint></Joint></Body>\n"
+      "</objects><groups/></BodySet>\n"
+      "<MarkerSet name=\"\"><objects><Marker name=\"tip\"><body> b </body><location> 0 -0.5 0 </location>"
+      "</Marker></objects><groups/></MarkerSet>\n"
+      "</SimbodyEngine>\n</DynamicsEngine>\n</Model>\n</OpenSimDocument>\n";
+  const ModelPtr m = parseOsim(text, "snow.osim");
+  EXPECT_EQ(m->format_version, 10600);
+  EXPECT_EQ(m->gravity, Vec3(0, -9.5, 0));
+  ASSERT_EQ(m->bodies.size(), 2u);
+  EXPECT_EQ(body(*m, "b").mass, 2.0);
+  ASSERT_EQ(m->coordinates.size(), 1u);
+  EXPECT_EQ(m->coordinates[0].range_min, -1.0);
+  ASSERT_EQ(m->markers.size(), 1u);
+  // Rotation q about z at (0, 1, 0) in ground; the body's origin 0.5 above its joint frame, the
+  // tip 0.5 below its origin: tip = (0, 1, 0) + Rz(q) (0, -1, 0) = (sin q, 1 - cos q, 0).
+  const double q = 0.3;
+  EXPECT_TRUE(test::markerInGround(*m, test::coordinateValues(*m, {{"q", q}}), "tip")
+                  .isApprox(Vec3(std::sin(q), 1 - std::cos(q), 0), 1e-14));
+  // The ActuatorSet was read as the ForceSet: the actuator is simulated, not listed as ignored.
+  EXPECT_EQ(m->actuators.size(), 1u);
+  EXPECT_EQ(countIgnored(*m, "ActuatorSet"), 0);
+}
+
 TEST(OsimReader, UnknownJointType) {
   std::string j = kPin;
   j.replace(j.find("PinJoint"), 8, "FooJoint");
