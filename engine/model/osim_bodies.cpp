@@ -23,7 +23,10 @@ void OsimReader::readBodies(const Node& model_el, bool v4) {
   // OpenSim 4 models may list their bodies in the model's <components> (Moco writes them so)
   // instead of a BodySet; both are read, with component paths /bodyset/<b> and /<b>.
   Node set = v4 ? model_el.child("BodySet") : model_el.requireChild("BodySet");
-  bool ground_seen = v4;
+  // The ground is a body named 'ground' in the BodySet of 3.x layouts and of the 4.0 development
+  // layouts written before <Ground> existed (30500-30504; OpenSim moves it to <Ground>).
+  const bool ground_in_bodyset = !v4 || !model_el.child("Ground");
+  bool ground_seen = v4, ground_body_read = false;
   for (const Node& b : set.child("objects").children()) {
     if (b.name() != "Body") {
       ignore(b, "BodySet");
@@ -31,11 +34,12 @@ void OsimReader::readBodies(const Node& model_el, bool v4) {
     }
     const std::string name = b.nameAttr();
     if (name.empty()) b.fail("expected a name attribute on <Body>, got none");
-    if (name == "ground" && !v4) {
-      if (ground_seen) b.fail("duplicate body name 'ground'");
-      ground_seen = true;
+    if (name == "ground" && ground_in_bodyset) {
+      if (ground_body_read) b.fail("duplicate body name 'ground'");
+      ground_seen = ground_body_read = true;
       body_nodes_[0] = b;
       readWrapObjects(b, 0);
+      if (v4) continue;
       readMeshes3(b, 0);
       Node jw = b.child("Joint");
       if (jw && !jw.children().empty())

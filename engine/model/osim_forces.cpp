@@ -39,7 +39,8 @@ std::pair<Node, std::string> findReference(const Node& el, const char* tag3, con
     if (Node n = el.child(socket.c_str()); n && !n.text().empty()) return {n, n.text()};
   for (const Node& c : el.child("connectors").children())
     if (c.nameAttr() == name)
-      if (Node n = c.child("connectee_name"); n && !n.text().empty()) return {n, n.text()};
+      for (const char* tag : {"connectee_name", "connected_to_name"})  // 30500-30502: connected_to_name
+        if (Node n = c.child(tag); n && !n.text().empty()) return {n, n.text()};
   return {Node(), ""};
 }
 

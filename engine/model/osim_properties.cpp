@@ -117,8 +117,12 @@ Node findSocket(const Node& owner, std::initializer_list<const char*> names) {
     // 30508-30516 wrote socket_<name>_connectee_name (OpenSim renames it to socket_<name>).
     if (Node s = owner.child(("socket_" + n + "_connectee_name").c_str())) return s;
     if (Node s = owner.child(("connector_" + n + "_connectee_name").c_str())) return s;
-    for (const Node& c : owner.child("connectors").children())
-      if (c.nameAttr() == n) return c.requireChild("connectee_name");
+    for (const Node& c : owner.child("connectors").children()) {
+      if (c.nameAttr() != n) continue;
+      // 30500-30502 wrote <connected_to_name>, later versions <connectee_name>.
+      if (Node old = c.child("connected_to_name")) return old;
+      return c.requireChild("connectee_name");
+    }
   }
   return Node();
 }

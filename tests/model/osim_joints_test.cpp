@@ -135,6 +135,32 @@ TEST(OsimJoints, ConnectorsOfFormat30501) {
   EXPECT_LT((X[m->findBody("rod2")].translation() - rod2).norm(), 1e-12);
 }
 
+// The 4.0 development form of 30500-30502 (opensim-core's Tools/Test/BuiltinGeometry.osim):
+// the ground is a body named 'ground' in the BodySet (there is no <Ground>) and the connectors
+// name their bodies in <connected_to_name> (later <connectee_name>).
+TEST(OsimJoints, GroundBodyAndConnectedToNameOfFormat30502) {
+  const std::string text =
+      "<OpenSimDocument Version=\"30502\"><Model name=\"m\"><BodySet><objects>\n"
+      "<Body name=\"ground\"><mass>0</mass><mass_center>0 0 0</mass_center></Body>\n"
+      "<Body name=\"rod\"><mass>1</mass><mass_center>0 0 0</mass_center><inertia>1 1 1 0 0 0</inertia></Body>\n"
+      "</objects></BodySet>\n<JointSet><objects>\n<PinJoint name=\"pin\"><connectors>"
+      "<Connector_Body_ name=\"parent_body\"><connected_to_name>ground</connected_to_name></Connector_Body_>"
+      "<Connector_Body_ name=\"child_body\"><connected_to_name>rod</connected_to_name></Connector_Body_>"
+      "</connectors><location_in_parent>0 1 0</location_in_parent><orientation_in_parent>0 0 0</orientation_in_parent>"
+      "<location_in_child>0 0.5 0</location_in_child><orientation_in_child>0 0 0</orientation_in_child>"
+      "<CoordinateSet><objects><Coordinate name=\"q\"/></objects></CoordinateSet></PinJoint>\n"
+      "</objects></JointSet></Model></OpenSimDocument>\n";
+  const ModelPtr m = parseOsim(text, "builtin.osim");
+  ASSERT_EQ(m->bodies.size(), 2u);  // the BodySet's ground is the model's ground, not a second body
+  ASSERT_EQ(m->joints.size(), 1u);
+  EXPECT_EQ(m->joints[0].parent_body, 0);
+  EXPECT_EQ(m->bodies[m->joints[0].child_body].name, "rod");
+  // The rod hangs from its (0, 0.5, 0) at (0, 1, 0): its origin is at (0, 1, 0) + Rz(q) (0, -0.5, 0).
+  const double q = 0.7;
+  const Vec3 p = test::bodyPoses(*m, test::coordinateValues(*m, {{"q", q}}))[m->findBody("rod")].translation();
+  EXPECT_LT((p - Vec3(0.5 * std::sin(q), 1 - 0.5 * std::cos(q), 0)).norm(), 1e-14);
+}
+
 TEST(OsimJoints, ScapulothoracicAndEllipsoidJoints) {
   const ModelPtr m = readOsim(sourcePath("tests/model/fixtures/shoulder40000.osim"));
   const Joint& st = m->joints[m->findJoint("scapulothoracic")];
