@@ -120,6 +120,30 @@ TEST(OsimJoints, SpatialTransformWithOnlyTranslationsOfFormat10902) {
   EXPECT_EQ(m->ignored[0].category, "force");
 }
 
+// Two joints of the same name (opensim-core's snowboard10600.osim names both toes' joints mtp_l,
+// each with a coordinate mtp_angle_l): OpenSim renames the later joint mtp_l_0 with a warning, and
+// tells the coordinates apart by path; kneesim calls the later ones mtp_l_0 and mtp_l_0/mtp_angle_l.
+TEST(OsimJoints, DuplicateJointNamesAreRenamedAsOpenSimDoes) {
+  const std::string pin_a = "<PinJoint name=\"mtp\"><parent_body>ground</parent_body><location_in_parent>1 0 0"
+                            "</location_in_parent><CoordinateSet><objects><Coordinate name=\"q\"/></objects>"
+                            "</CoordinateSet></PinJoint>";
+  std::string pin_b = pin_a;
+  pin_b.replace(pin_b.find("1 0 0"), 5, "-1 0 0");
+  const ModelPtr m = parseOsim(model3(pin_a, pin_b), "dup.osim");
+  ASSERT_EQ(m->joints.size(), 2u);
+  EXPECT_EQ(m->joints[0].name, "mtp");
+  EXPECT_EQ(m->joints[1].name, "mtp_0");
+  EXPECT_EQ(m->bodies[m->joints[1].child_body].name, "b");
+  ASSERT_EQ(m->coordinates.size(), 2u);
+  EXPECT_EQ(m->coordinates[1].name, "mtp_0/q");
+  // b turns about z at (-1, 0, 0) by its own coordinate, not a's.
+  const auto X = test::bodyPoses(*m, test::coordinateValues(*m, {{"q", 0.2}, {"mtp_0/q", 0.5}}));
+  EXPECT_TRUE(X[m->findBody("b")].isApprox(test::shift(Vec3(-1, 0, 0)) * test::rot(Vec3::UnitZ(), 0.5), 1e-14));
+  EXPECT_NE(join(m->warnings, "\n").find("joint name 'mtp' is taken by another joint; this <PinJoint> is "
+                                                "called 'mtp_0'"),
+            std::string::npos);
+}
+
 // The 4.0 pre-release form (30501): <connectors> naming parent_body and child_body by relative
 // names, location_in_child, no ground body (OpenSim's Python tutorial double pendulum).
 TEST(OsimJoints, ConnectorsOfFormat30501) {

@@ -422,6 +422,22 @@ TEST(OsimReader, DynamicsEngineOfFormat10600IsUnwrapped) {
   EXPECT_EQ(countIgnored(*m, "ActuatorSet"), 0);
 }
 
+// The real 10600 file (tests/model/corpus/snowboard_10600.osim, from opensim-core): everything in
+// its SimbodyEngine is read, and its two joints named mtp_l are told apart as OpenSim does.
+TEST(OsimReader, Snowboard10600) {
+  const ModelPtr m = readOsim(test::sourcePath("tests/model/corpus/snowboard_10600.osim"));
+  EXPECT_EQ(m->format_version, 10600);
+  EXPECT_EQ(m->gravity, Vec3(0, -9.80664999999999940000, 0));
+  EXPECT_EQ(m->bodies.size(), 10u);  // ground + board, tibiae, tali, calcanei, toes
+  EXPECT_EQ(m->coordinates.size(), 18u);
+  EXPECT_EQ(m->markers.size(), 24u);
+  // calcn_r: mass 1.25, mass_center 0.1 0.03 0; ankle_r's axis -0.10501355 -0.17402245 0.97912632.
+  EXPECT_EQ(body(*m, "calcn_r").mass, 1.25);
+  EXPECT_EQ(body(*m, "toes_l").mass, 0.2166);
+  EXPECT_EQ(m->bodies[joint(*m, "mtp_l_0").child_body].name, "toes_l");
+  EXPECT_EQ(m->coordinates[m->findCoordinate("mtp_l_0/mtp_angle_l")].joint, m->findJoint("mtp_l_0"));
+}
+
 TEST(OsimReader, UnknownJointType) {
   std::string j = kPin;
   j.replace(j.find("PinJoint"), 8, "FooJoint");
