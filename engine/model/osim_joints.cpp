@@ -96,6 +96,20 @@ std::string OsimReader::nameUnnamedJoint(const Node& j, int child) {
   return name;
 }
 
+std::string OsimReader::claimJointName(const Node& j, int child) {
+  std::string name = j.nameAttr().empty() ? nameUnnamedJoint(j, child) : j.nameAttr();
+  if (joint_names_.count(name)) {
+    // OpenSim 4 renames a component whose name a sibling already has to <name>_0, <name>_1, ...
+    // with a warning (Component::finalizeFromProperties); so does kneesim.
+    const std::string taken = name;
+    for (int k = 0; joint_names_.count(name); ++k) name = taken + "_" + std::to_string(k);
+    m_->warnings.push_back(formatLocated(j.where(), "joint name '" + taken + "' is taken by another joint; this <" +
+                                                        j.name() + "> is called '" + name + "'"));
+  }
+  joint_names_.insert(name);
+  return name;
+}
+
 std::vector<ParsedCoordinate> OsimReader::readJointCoordinates(const Node& j) {
   std::vector<ParsedCoordinate> out;
   std::vector<Node> nodes;
@@ -165,16 +179,7 @@ int OsimReader::addCoordinate(const ParsedCoordinate& pc, int joint, const std::
 int OsimReader::readJoint(const Node& j, int child, bool v4) {
   const std::string type = j.name();
   // OpenSim reads joints without a name (test models of formats 10905 to 30000 have them).
-  std::string name = j.nameAttr().empty() ? nameUnnamedJoint(j, child) : j.nameAttr();
-  if (joint_names_.count(name)) {
-    // OpenSim 4 renames a component whose name a sibling already has to <name>_0, <name>_1, ...
-    // with a warning (Component::finalizeFromProperties); so does kneesim.
-    const std::string taken = name;
-    for (int k = 0; joint_names_.count(name); ++k) name = taken + "_" + std::to_string(k);
-    m_->warnings.push_back(formatLocated(j.where(), "joint name '" + taken + "' is taken by another joint; this <" +
-                                                        j.name() + "> is called '" + name + "'"));
-  }
-  joint_names_.insert(name);
+  const std::string name = claimJointName(j, child);
   joint_nodes_.push_back(j);
 
   Joint jt;

@@ -161,6 +161,9 @@ class OsimReader {
   void readJointSet(const Node& model_el);
   /// A name for a joint the file leaves unnamed (OpenSim accepts them), unique among joints.
   std::string nameUnnamedJoint(const Node& j, int child);
+  /// The name joint @p j goes by: its own, or one given to it when it has none or another joint
+  /// has it (as OpenSim renames duplicates); recorded as taken.
+  std::string claimJointName(const Node& j, int child);
   void readCustomJointAxes(const Node& j, std::array<AxisInfo, 6>& axes);
   void readTransformAxisSet(const Node& set, std::array<AxisInfo, 6>& axes);
   void readEllipsoidProperties(const Node& j, Joint& jt);
