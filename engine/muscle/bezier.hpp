@@ -29,7 +29,7 @@ class BezierCurve {
   /// dy/dx at x.
   double calcDerivative(double x) const;
 
-  /// Millard's active force-length curve: zero below x0 (0.47561 by default), a shallow plateau
+  /// Millard's active force-length curve: zero below x0 (OpenSim's default 0.4441), a shallow plateau
   /// ascending from x1 to the optimum x2 = 1, zero beyond x3, with minimum value ylow.
   static BezierCurve makeActiveForceLength(double x0, double x1, double x2, double x3, double ylow, double dydx,
                                            double curviness);

@@ -70,34 +70,7 @@ MuscleForceSet::MuscleForceSet(const model::Model& model) {
       if (!(p.flen > 1)) refuse(m, "expected Flen > 1, got " + formatSignificant(p.flen, 6));
       if (!(p.fv_threshold > 1.0 / p.flen)) refuse(m, "expected fv_linear_extrap_threshold > 1/Flen");
     } else if (m.type == "Millard2012EquilibriumMuscle") {
-      p.type = Type::Millard2012;
-      p.min_activation = param(m, "minimum_activation", 0.01);
-      const std::string fl = "ActiveForceLengthCurve.", fv = "ForceVelocityCurve.";
-      const double x0 = param(m, fl + "min_norm_active_fiber_length", 0.47561);
-      const double x1 = param(m, fl + "transition_norm_fiber_length", 0.73);
-      const double x3 = param(m, fl + "max_norm_active_fiber_length", 1.8123);
-      const double dydx = param(m, fl + "shallow_ascending_slope", 0.8616);
-      const double ylow = param(m, fl + "minimum_value", 0.1);
-      if (!(x0 >= 0 && x1 > x0 && 1.0 > x1 && x3 > 1.0) || !(ylow >= 0) || !(dydx >= 0 && dydx < (1 - ylow) / (1 - x1)))
-        refuse(m,
-               "expected 0 <= min_norm_active_fiber_length < transition_norm_fiber_length < 1 < "
-               "max_norm_active_fiber_length and a shallow_ascending_slope below (1 - minimum_value) / (1 - "
-               "transition_norm_fiber_length)");
-      p.active_force_length = BezierCurve::makeActiveForceLength(x0, x1, 1.0, x3, ylow, dydx, 1.0);
-      const double fmax = param(m, fv + "max_eccentric_velocity_force_multiplier", 1.4);
-      const double dc = param(m, fv + "concentric_slope_at_vmax", 0.0);
-      const double dnc = param(m, fv + "concentric_slope_near_vmax", 0.25);
-      const double diso = param(m, fv + "isometric_slope", 5.0);
-      const double de = param(m, fv + "eccentric_slope_at_vmax", 0.0);
-      const double dne = param(m, fv + "eccentric_slope_near_vmax", 0.15);
-      if (!(fmax > 1) || !(dc >= 0 && dc < 1) || !(dnc > dc && dnc <= 1) || !(diso > 1) ||
-          !(de >= 0 && de < fmax - 1) || !(dne >= de && dne < fmax - 1))
-        refuse(m,
-               "expected a force-velocity curve OpenSim accepts (1 < max_eccentric_velocity_force_multiplier, "
-               "slopes within their bounds)");
-      p.force_velocity =
-          BezierCurve::makeForceVelocity(fmax, dc, dnc, diso, de, dne, param(m, fv + "concentric_curviness", 0.6),
-                                         param(m, fv + "eccentric_curviness", 0.9));
+      readMillard(m, p);
     } else if (m.type == "Schutte1993Muscle_Deprecated") {
       p.type = Type::Schutte1993;
       p.damping = param(m, "damping", 0.1);
@@ -117,6 +90,53 @@ MuscleForceSet::MuscleForceSet(const model::Model& model) {
     }
     muscles_.push_back(std::move(p));
   }
+}
+
+void MuscleForceSet::readMillard(const model::Muscle& m, Params& p) {
+  p.type = Type::Millard2012;
+  p.min_activation = param(m, "minimum_activation", 0.01);
+  const std::string fl = "ActiveForceLengthCurve.", fv = "ForceVelocityCurve.";
+  // OpenSim 4's ActiveForceLengthCurve defaults (0.47 - 0.0259 for the corner's width).
+  const double x0 = param(m, fl + "min_norm_active_fiber_length", 0.47 - 0.0259);
+  const double x1 = param(m, fl + "transition_norm_fiber_length", 0.73);
+  const double x3 = param(m, fl + "max_norm_active_fiber_length", 1.8123);
+  const double dydx = param(m, fl + "shallow_ascending_slope", 0.8616);
+  double ylow = param(m, fl + "minimum_value", 0.1);
+  // OpenSim's extendFinalizeFromProperties reshapes the curves for the model variant the
+  // muscle runs: the damped model (fiber_damping >= 0.001, the default 0.1) sets the active
+  // force-length curve's minimum to 0 and the force-velocity slopes at +-vmax to 0; the
+  // classic Hill model with an elastic tendon raises them to at least 0.1 and half the near slopes.
+  const bool damped = param(m, "fiber_damping", 0.1) >= 0.001;
+  const bool rigid = param(m, "ignore_tendon_compliance", 0.0) != 0.0;
+  if (damped || rigid) ylow = 0.0;
+  else ylow = std::max(ylow, 0.1);
+  if (!(x0 >= 0 && x1 > x0 && 1.0 > x1 && x3 > 1.0) || !(ylow >= 0) || !(dydx >= 0 && dydx < (1 - ylow) / (1 - x1)))
+    refuse(m,
+           "expected 0 <= min_norm_active_fiber_length < transition_norm_fiber_length < 1 < "
+           "max_norm_active_fiber_length and a shallow_ascending_slope below (1 - minimum_value) / (1 - "
+           "transition_norm_fiber_length)");
+  p.active_force_length = BezierCurve::makeActiveForceLength(x0, x1, 1.0, x3, ylow, dydx, 1.0);
+  const double fmax = param(m, fv + "max_eccentric_velocity_force_multiplier", 1.4);
+  double dc = param(m, fv + "concentric_slope_at_vmax", 0.0);
+  const double dnc = param(m, fv + "concentric_slope_near_vmax", 0.25);
+  const double diso = param(m, fv + "isometric_slope", 5.0);
+  double de = param(m, fv + "eccentric_slope_at_vmax", 0.0);
+  const double dne = param(m, fv + "eccentric_slope_near_vmax", 0.15);
+  if (damped || rigid) {
+    dc = 0.0;
+    de = 0.0;
+  } else {
+    dc = std::max(dc, 0.5 * dnc);
+    de = std::max(de, 0.5 * dne);
+  }
+  if (!(fmax > 1) || !(dc >= 0 && dc < 1) || !(dnc > dc && dnc <= 1) || !(diso > 1) ||
+      !(de >= 0 && de < fmax - 1) || !(dne >= de && dne < fmax - 1))
+    refuse(m,
+           "expected a force-velocity curve OpenSim accepts (1 < max_eccentric_velocity_force_multiplier, "
+           "slopes within their bounds)");
+  p.force_velocity =
+      BezierCurve::makeForceVelocity(fmax, dc, dnc, diso, de, dne, param(m, fv + "concentric_curviness", 0.6),
+                                     param(m, fv + "eccentric_curviness", 0.9));
 }
 
 double MuscleForceSet::calcPennationAngle(const Params& p, double fiber_length) const {

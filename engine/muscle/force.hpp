@@ -47,6 +47,9 @@ class MuscleForceSet {
     model::FunctionPtr tendon_fl, active_fl, passive_fl;                 // Schutte (passive may be null)
     double damping = 0.1;
   };
+  /// Millard2012EquilibriumMuscle's curves from its properties, shaped as OpenSim 4 shapes them
+  /// for the muscle's variant (damped or classic Hill, rigid or elastic tendon).
+  static void readMillard(const model::Muscle& m, Params& p);
   double calcThelen(const Params& p, double a, double fiber_length, double fiber_velocity) const;
   double calcMillard(const Params& p, double a, double fiber_length, double fiber_velocity) const;
   double calcSchutteIsometric(const Params& p, double a, double length) const;

@@ -98,6 +98,36 @@ TEST(MuscleForceSet, MillardCurvesPassThroughTheirDefiningPoints) {
   EXPECT_NEAR(forces.calcRigidTendonForce(0, 1.0, 0.3, -0.1), 1000.0 * fv.calcValue(-0.1), 1e-9);
 }
 
+// OpenSim 4's Millard defaults and the reshaping its extendFinalizeFromProperties applies: the
+// active force-length curve starts at 0.47 - 0.0259 = 0.4441 (fal(0.45) > 0), its floor is 0 in the
+// damped model (the default, fiber_damping 0.1) and at least 0.1 in the classic Hill model with an
+// elastic tendon, whose force-velocity curve gets end slopes of half the near ones (0.125, 0.075).
+TEST(MuscleForceSet, MillardCurvesTakeOpenSimsDefaultsAndTheModelVariantsShape) {
+  const double L_at = 0.2;  // tendon slack length: L = 0.2 + lce_n * 0.1 with a rigid tendon
+  const muscle::MuscleForceSet damped(modelWith(makeMuscle("Millard2012EquilibriumMuscle")));
+  const auto fal0 = muscle::BezierCurve::makeActiveForceLength(0.4441, 0.73, 1.0, 1.8123, 0.0, 0.8616, 1.0);
+  EXPECT_GT(fal0.calcValue(0.45), 0.0);
+  EXPECT_NEAR(damped.calcRigidTendonForce(0, 1.0, L_at + 0.045, 0.0), 1000.0 * fal0.calcValue(0.45), 1e-9);
+  EXPECT_NEAR(damped.calcRigidTendonForce(0, 1.0, L_at + 0.040, 0.0), 0.0, 1e-12);
+  EXPECT_NEAR(damped.calcRigidTendonForce(0, 1.0, L_at + 0.2, 0.0), 0.0, 1e-12);
+
+  model::Muscle hill = makeMuscle("Millard2012EquilibriumMuscle");
+  hill.parameters["fiber_damping"] = 0.0;
+  const muscle::MuscleForceSet classic(modelWith(hill));
+  EXPECT_NEAR(classic.calcRigidTendonForce(0, 1.0, L_at + 0.040, 0.0), 100.0, 1e-9);
+  EXPECT_NEAR(classic.calcRigidTendonForce(0, 1.0, L_at + 0.2, 0.0), 100.0, 1e-9);
+  const auto fv_hill = muscle::BezierCurve::makeForceVelocity(1.4, 0.125, 0.25, 5.0, 0.075, 0.15, 0.6, 0.9);
+  const auto fv_damped = muscle::BezierCurve::makeForceVelocity(1.4, 0.0, 0.25, 5.0, 0.0, 0.15, 0.6, 0.9);
+  // vmax lopt = 1 m/s: a lengthening speed of -0.95 m/s is a normalised fibre velocity of -0.95.
+  EXPECT_NEAR(classic.calcRigidTendonForce(0, 1.0, 0.3, -0.95), 1000.0 * fv_hill.calcValue(-0.95), 1e-9);
+  EXPECT_NEAR(damped.calcRigidTendonForce(0, 1.0, 0.3, -0.95), 1000.0 * fv_damped.calcValue(-0.95), 1e-9);
+  EXPECT_GT(std::abs(fv_hill.calcValue(-0.95) - fv_damped.calcValue(-0.95)), 1e-3);
+
+  hill.parameters["ignore_tendon_compliance"] = 1.0;  // rigid and undamped: shaped as the damped model
+  const muscle::MuscleForceSet rigid(modelWith(hill));
+  EXPECT_NEAR(rigid.calcRigidTendonForce(0, 1.0, L_at + 0.040, 0.0), 0.0, 1e-12);
+}
+
 // The Schutte muscle's isometric force: the fibre length where the elastic tendon's force
 // equals the fibres' (active + passive) force along it, found here by bisection.
 TEST(MuscleForceSet, SchutteIsometricForceBalancesTendonAndFibres) {
