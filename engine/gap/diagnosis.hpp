@@ -78,9 +78,9 @@ struct DiagnosisOptions {
   /// prewhitened error), the larger prewhitened withheld improvement is selected. Reported errors
   /// stay in newtons.
   int prewhiten_order = -1;
-  /// Family level of the remaining-structure tests, shared by Bonferroni between four: the F-type
-  /// test of the mean gap, the model-agnostic check, the noise floor's excess and the cycles'
-  /// heterogeneity (gap/remaining.hpp).
+  /// Family level of the remaining-structure tests, shared by Bonferroni between five: the F-type
+  /// test of the mean gap, the model-agnostic check, the noise floor's excess, the cycles'
+  /// heterogeneity and the wander within a recording (gap/remaining.hpp).
   double structure_alpha = 0.05;
   /// The withheld error is consistent with the noise floor when the upper bound of its RMSE over the
   /// floor is below this (gap/remaining.hpp NoiseFloor); "baseline" (and "explained") need it.
@@ -217,7 +217,7 @@ struct ConfusablePair {
   std::string separated_by;       ///< What data would separate them.
 };
 
-/// Remaining systematic structure in the gap of the final model. Four tests, each at a quarter of
+/// Remaining systematic structure in the gap of the final model. Five tests, each at a fifth of
 /// DiagnosisOptions::structure_alpha (Bonferroni):
 ///  - the mean gap over the cycle: an F-type test (Shen & Faraway 2004) of the fit on all cycles'
 ///    residuals binned over the cycle, a mean curve per activity against none (the squared mean per bin
@@ -227,8 +227,9 @@ struct ConfusablePair {
 ///  - the model-agnostic check (AgnosticCheck): boosted trees on every signal, cross-validated;
 ///  - the noise floor (NoiseFloor): the withheld error significantly above the scatter of matched
 ///    frames of other cycles;
-///  - cycle-to-cycle heterogeneity (CycleHeterogeneity): the offsets and gains of a cycle's thirds.
-/// Structure remains when the mean gap, the model-agnostic check or the cycles say so. The noise floor is
+///  - cycle-to-cycle heterogeneity (CycleHeterogeneity): the offsets and gains of a cycle's thirds;
+///  - a slow wander within a recording (RecordingWander): the offsets of thirds of cycles near in time.
+/// Structure remains when the mean gap, the model-agnostic check, the cycles or the wander say so. The noise floor is
 /// an estimate (matching imperfect in both directions): a withheld error above it, with no test finding
 /// what carries the excess, makes the verdict "undecided" (nothing selected) or "partly explained", never
 /// "none of the candidates" on its own. The repeatability band (the measured force's SD across cycles)
@@ -241,13 +242,14 @@ struct StructureTest {
   double mean_uncertainty = 0;    ///< RMS over the same bins of the mean gap's standard error (SD / sqrt(cycles)), N.
   double repeatability_band = 0;  ///< RMS over the same bins of the measured force's between-cycle SD, N.
   bool exceeds_band = false;      ///< systematic_gap > repeatability_band (reported, not a test).
-  bool significant = false;       ///< The mean gap, the model-agnostic check or the cycles' heterogeneity.
+  bool significant = false;       ///< The mean gap, the model-agnostic check, the cycles or the wander.
   std::string note;
   std::vector<BandCurve> remaining;  ///< Mean held-out gap over the cycle after the selected effects.
   std::vector<SignalCorrelation> correlations;  ///< Of the remaining held-out gap.
   AgnosticCheck agnostic;
   NoiseFloor noise_floor;
   CycleHeterogeneity cycle_heterogeneity;
+  RecordingWander recording_wander;
   /// The tests that found structure, in words ("mean gap over the cycle", "model-agnostic check", ...).
   std::vector<std::string> evidence;
 };

@@ -137,6 +137,10 @@ std::string describeRemaining(const StructureTest& st) {
     s += std::string(" Cycle to cycle: ") + (h.significant ? "the offset or gain differs" : "no difference") +
          " (thirds of the cycles, p = " + fmt(h.p_value, 3) + "; gain SD " + pc(h.gain_sd) + ", offset SD " + fmt(h.offset_sd, 3) +
          " N).";
+  const RecordingWander& w = st.recording_wander;
+  if (w.run)
+    s += std::string(" Within a recording: ") + (w.significant ? "the offset wanders" : "no wander") +
+         " (thirds of cycles near in time, p = " + fmt(w.p_value, 3) + "; " + fmt(w.wander_sd, 3) + " N).";
   return s;
 }
 
@@ -172,7 +176,7 @@ StructureTest structureTest(const Context& c, const Model& m) {
   st.exceeds_band = nb > 0 && st.systematic_gap > st.repeatability_band;
   st.correlations = correlate(c, gap, m.pred);
 
-  const double alpha = o.structure_alpha / 4;
+  const double alpha = o.structure_alpha / 5;
   RemainingOptions ro;
   ro.alpha = alpha;
   ro.level = o.level;
@@ -181,9 +185,11 @@ StructureTest structureTest(const Context& c, const Model& m) {
   if (o.agnostic_check) st.agnostic = runAgnosticCheck(data, ro);
   st.noise_floor = estimateNoiseFloor(data, ro);
   st.cycle_heterogeneity = testCycleHeterogeneity(data, ro);
+  st.recording_wander = testRecordingWander(data, ro);
   if (std::isfinite(st.p_value) && st.p_value < alpha) st.evidence.push_back("mean gap over the cycle");
   if (st.agnostic.significant) st.evidence.push_back("model-agnostic check");
   if (st.cycle_heterogeneity.significant) st.evidence.push_back("cycle-to-cycle offset or gain");
+  if (st.recording_wander.significant) st.evidence.push_back("a wander within a recording");
   st.significant = !st.evidence.empty();
   return st;
 }

@@ -309,6 +309,8 @@ NoiseFloor estimateNoiseFloor(const RemainingData& d, const RemainingOptions& o)
 namespace {
 
 constexpr int kSlots = 3;
+// Time scale of the wander test's weights, in cycle durations.
+constexpr double kWanderCycles = 1;
 
 // One cycle's slots (thirds by phase): the residual's offset and relative gain in each.
 struct SlotCycle {
@@ -459,6 +461,173 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
   h.note = "offsets and gains of the thirds of " + std::to_string(used) + " cycles, " + std::to_string(total) +
            " pairings";
   return h;
+}
+
+namespace {
+
+// One third of a cycle: its mean in-sample residual (less, later, its activity's mean there) and time.
+struct Third {
+  int unit = 0, slot = 0;
+  double dev = 0, time = 0;
+};
+
+// Per recording, the thirds of its cycles that have every third (as slotCycles: outer fifths dropped),
+// each less the recording's mean at that third over its cycles with all thirds (the recording's mean curve
+// at this resolution: an offset of the whole recording is the mean-gap test's, and would only add to
+// every product here); and per activity, the median cycle duration.
+std::vector<std::vector<Third>> recordingThirds(const RemainingData& d, std::map<std::string, double>& duration) {
+  const int n_units = countUnits(d);
+  struct Sums {
+    double r = 0, t = 0;
+    int n = 0;
+  };
+  std::vector<std::array<Sums, kSlots>> sums(n_units);
+  std::vector<int> trial_of(n_units, -1);
+  std::vector<double> first(n_units, std::numeric_limits<double>::infinity()), last(n_units, -first[0]);
+  for (size_t t = 0; t < d.trials.size(); ++t)
+    for (size_t i = 0; i < d.unit[t].size(); ++i) {
+      const int u = d.unit[t][i];
+      const double ph = d.phase[t][i], r = d.fitted_residual[t][i];
+      if (u < 0) continue;
+      trial_of[u] = static_cast<int>(t);
+      first[u] = std::min(first[u], d.trials[t]->time[i]);
+      last[u] = std::max(last[u], d.trials[t]->time[i]);
+      if (!std::isfinite(ph) || !std::isfinite(r)) continue;
+      const int k = std::min(kSlots - 1, static_cast<int>(ph * kSlots));
+      const double x = ph * kSlots - k;
+      if (x < 0.2 || x > 0.8) continue;
+      Sums& sm = sums[u][k];
+      sm.r += r, sm.t += d.trials[t]->time[i], ++sm.n;
+    }
+  std::map<std::string, std::vector<double>> lengths;
+  std::vector<std::array<std::pair<double, int>, kSlots>> rec_mean(d.trials.size());
+  std::vector<bool> whole(n_units, false);
+  for (int u = 0; u < n_units; ++u) {
+    if (trial_of[u] < 0) continue;
+    lengths[d.unit_activity[u]].push_back(last[u] - first[u]);
+    bool ok = true;
+    for (int k = 0; k < kSlots; ++k) ok = ok && sums[u][k].n >= 5;
+    if (!ok) continue;
+    whole[u] = true;
+    auto& m = rec_mean[trial_of[u]];
+    for (int k = 0; k < kSlots; ++k) m[k].first += sums[u][k].r / sums[u][k].n, ++m[k].second;
+  }
+  for (auto& [act, v] : lengths) {
+    std::sort(v.begin(), v.end());
+    duration[act] = v[v.size() / 2];
+  }
+  std::vector<std::vector<Third>> out(d.trials.size());
+  for (int u = 0; u < n_units; ++u) {
+    if (!whole[u]) continue;
+    const auto& m = rec_mean[trial_of[u]];
+    for (int k = 0; k < kSlots; ++k)
+      out[trial_of[u]].push_back(
+          {u, k, sums[u][k].r / sums[u][k].n - m[k].first / m[k].second, sums[u][k].t / sums[u][k].n});
+  }
+  return out;
+}
+
+// A recording's thirds as the permutation test reads them: deviations by [cycle][slot] and the pairs of
+// different slots with their weights.
+struct WanderRecording {
+  std::vector<std::array<double, kSlots>> x;  // scaled deviations, per cycle of the recording
+  struct Pair {
+    int a, ka, b, kb;
+    double w;
+  };
+  std::vector<Pair> pairs;
+};
+
+double wanderStatistic(const std::vector<WanderRecording>& recs, const std::vector<std::array<std::vector<int>, kSlots>>& perm) {
+  double s = 0;
+  for (size_t r = 0; r < recs.size(); ++r)
+    for (const auto& p : recs[r].pairs)
+      s += p.w * recs[r].x[perm[r][p.ka][p.a]][p.ka] * recs[r].x[perm[r][p.kb][p.b]][p.kb];
+  return s;
+}
+
+}  // namespace
+
+RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptions& o) {
+  RecordingWander w;
+  std::map<std::string, double> duration;
+  const auto thirds = recordingThirds(d, duration);
+  // Each activity's variance of the deviations scales them (activities differ in noise).
+  std::map<std::string, std::pair<double, int>> var;
+  for (const auto& rec : thirds)
+    for (const Third& th : rec) {
+      auto& v = var[d.unit_activity[th.unit]];
+      v.first += th.dev * th.dev, ++v.second;
+    }
+  std::vector<WanderRecording> recs;
+  double cov = 0, wsum = 0;
+  for (const auto& rec : thirds) {
+    std::map<int, int> index;  // unit -> cycle of the recording
+    for (const Third& th : rec) index.emplace(th.unit, static_cast<int>(index.size()));
+    if (index.size() < 2) continue;
+    const auto& v = var[d.unit_activity[rec.front().unit]];
+    const double scale = v.first > 0 ? std::sqrt(v.first / v.second) : 1.0;
+    const double lambda = std::max(kWanderCycles * duration[d.unit_activity[rec.front().unit]], 1e-6);
+    WanderRecording wr;
+    wr.x.resize(index.size());
+    for (const Third& th : rec) wr.x[index[th.unit]][th.slot] = th.dev / scale;
+    for (size_t i = 0; i < rec.size(); ++i)
+      for (size_t j = i + 1; j < rec.size(); ++j) {
+        if (rec[i].slot == rec[j].slot) continue;
+        const double wt = std::exp(-std::abs(rec[i].time - rec[j].time) / lambda);
+        wr.pairs.push_back({index[rec[i].unit], rec[i].slot, index[rec[j].unit], rec[j].slot, wt});
+        cov += wt * rec[i].dev * rec[j].dev, wsum += wt;
+      }
+    w.units += static_cast<int>(index.size());
+    ++w.recordings;
+    recs.push_back(std::move(wr));
+  }
+  if (recs.empty()) {
+    w.note = "needs a recording with at least 2 cycles with every third of the cycle";
+    return w;
+  }
+  std::vector<std::array<std::vector<int>, kSlots>> perm(recs.size());
+  double count = 1;
+  for (size_t r = 0; r < recs.size(); ++r)
+    for (int k = 0; k < kSlots; ++k) {
+      perm[r][k].resize(recs[r].x.size());
+      std::iota(perm[r][k].begin(), perm[r][k].end(), 0);
+      if (k > 0)  // the first third may stay: only the assignment between thirds matters
+        for (size_t j = 2; j <= recs[r].x.size() && count <= 1e7; ++j) count *= double(j);
+    }
+  w.statistic = wanderStatistic(recs, perm);
+  const double tie = 1e-9 * std::abs(w.statistic);
+  int ge = 0, total = 0;
+  if (count <= 5000) {
+    auto cur = perm;
+    while (true) {
+      ge += wanderStatistic(recs, cur) >= w.statistic - tie;
+      ++total;
+      size_t r = 0;
+      int k = 1;
+      while (r < cur.size() && !std::next_permutation(cur[r][k].begin(), cur[r][k].end()))
+        if (++k == kSlots) k = 1, ++r;
+      if (r == cur.size()) break;
+    }
+  } else {
+    std::mt19937_64 rng(20150101);
+    auto cur = perm;
+    ge = 1, total = 1;
+    for (int i = 0; i < 2000; ++i) {
+      for (auto& rp : cur)
+        for (int k = 1; k < kSlots; ++k) std::shuffle(rp[k].begin(), rp[k].end(), rng);
+      ge += wanderStatistic(recs, cur) >= w.statistic - tie;
+      ++total;
+    }
+  }
+  w.p_value = double(ge) / total;
+  w.dof = total;
+  w.significant = w.p_value < o.alpha;
+  w.wander_sd = wsum > 0 ? std::sqrt(std::max(0.0, cov / wsum)) : 0.0;
+  w.run = true;
+  w.note = "thirds of " + std::to_string(w.units) + " cycles in " + std::to_string(w.recordings) + " recordings, " +
+           std::to_string(total) + " assignments";
+  return w;
 }
 
 }  // namespace kneesim::gap

@@ -12,7 +12,9 @@
 //    load and time in the recording (nearest frame of another cycle of the same activity), against the
 //    withheld error itself, with intervals over cycles;
 //  - cycle-to-cycle heterogeneity: whether the residual's offset and gain differ between cycles of an
-//    activity (the thirds of a cycle agree beyond chance).
+//    activity (the thirds of a cycle agree beyond chance);
+//  - a slow wander within a recording: whether the residual's offset changes over the recording's time
+//    (the thirds of cycles near in time agree beyond chance).
 
 #include <string>
 #include <vector>
@@ -96,7 +98,32 @@ struct CycleHeterogeneity {
   double gain_sd = 0, offset_sd = 0;
 };
 
-/// What the three read: per trial and frame, and the units and folds of cross-validation.
+/// Whether the residual wanders slowly within a recording (a drift of the load cells' zero, a subject's
+/// loading changing over a trial): every third of a cycle (by phase, its outer fifths dropped, as in
+/// CycleHeterogeneity) gets its mean in-sample residual less the recording's mean at that third (its mean
+/// curve: a model error common to the cycles, or an offset of the whole recording, which the mean-gap
+/// test judges); within a recording, thirds near in time agree
+/// when the residual wanders. Statistic: over the recording's pairs of thirds of different positions in
+/// the cycle, the product of their deviations (each scaled by its activity's variance of them) weighted by
+/// exp(-|time apart| / the activity's median cycle duration): a cycle's own offset counts through its thirds,
+/// a wander across cycles through the neighbours'. Null: each third's deviations go to the recording's
+/// cycles at random (a permutation test; the noise's correlation time is handled by the spacing of the
+/// thirds, as in CycleHeterogeneity, and the statistic's like is itself under another assignment). Pairs
+/// of the same third of two cycles are left out: centring on the mean curve makes them anticorrelated.
+struct RecordingWander {
+  bool run = false;
+  std::string note;
+  int recordings = 0, units = 0;  ///< Recordings with at least two cycles, and their cycles.
+  double statistic = 0;
+  double dof = 0;                 ///< Assignments the permutation null counted.
+  double p_value = 1;
+  bool significant = false;
+  /// Size of what wanders, N: the square root of the weighted mean product of near thirds' deviations
+  /// (their covariance; 0 when negative).
+  double wander_sd = 0;
+};
+
+/// What the four read: per trial and frame, and the units and folds of cross-validation.
 struct RemainingData {
   std::vector<const identify::Trial*> trials;            ///< Channels and time.
   std::vector<std::vector<double>> residual;             ///< Withheld residual, N (NaN: frame not used).
@@ -108,11 +135,12 @@ struct RemainingData {
   std::vector<std::vector<int>> folds;                   ///< Units of each cross-validation fold.
 };
 
-/// Settings of the three.
+/// Settings of the four.
 struct RemainingOptions {
-  /// Level of each test: the model-agnostic check, the noise floor's excess, the cycles' heterogeneity
-  /// (and the diagnosis's sign-flip test of the mean gap) share a family level of 0.05.
-  double alpha = 0.05 / 4;
+  /// Level of each test: the model-agnostic check, the noise floor's excess, the cycles' heterogeneity,
+  /// the wander within a recording (and the diagnosis's F-type test of the mean gap) share a family
+  /// level of 0.05.
+  double alpha = 0.05 / 5;
   double level = 0.95;              ///< Level of the noise floor's interval.
   double noise_tolerance = 1.25;    ///< NoiseFloor::tolerance.
   BoostingOptions boosting;
@@ -127,5 +155,7 @@ AgnosticCheck runAgnosticCheck(const RemainingData& data, const RemainingOptions
 NoiseFloor estimateNoiseFloor(const RemainingData& data, const RemainingOptions& options = {});
 /// Cycle-to-cycle heterogeneity of the in-sample residual (see the file comment).
 CycleHeterogeneity testCycleHeterogeneity(const RemainingData& data, const RemainingOptions& options = {});
+/// A slow wander of the in-sample residual within each recording (RecordingWander).
+RecordingWander testRecordingWander(const RemainingData& data, const RemainingOptions& options = {});
 
 }  // namespace kneesim::gap

@@ -116,6 +116,12 @@ json heterogeneityJson(const CycleHeterogeneity& h) {
           {"gain_sd", jsonNumber(h.gain_sd)},     {"offset_sd_N", jsonNumber(h.offset_sd)}};
 }
 
+json wanderJson(const RecordingWander& w) {
+  return {{"run", w.run},         {"note", w.note},           {"recordings", w.recordings},
+          {"cycles", w.units},    {"statistic", jsonNumber(w.statistic)}, {"p_value", jsonNumber(w.p_value)},
+          {"significant", w.significant}, {"wander_sd_N", jsonNumber(w.wander_sd)}};
+}
+
 // Title prefix of the plots: what kind of data they show when it is not real data.
 std::string banner(const GapReport& r) {
   return std::string(r.synthetic ? "SYNTHETIC TRIALS - " : "") + (r.interim_inputs ? "INTERIM INPUTS - " : "");
@@ -222,7 +228,8 @@ void writeRemainingJson(const TargetDiagnosis& d, json& t) {
                               {"correlations", correlationsJson(d.structure.correlations)},
                               {"noise_floor", noiseFloorJson(d.structure.noise_floor)},
                               {"model_agnostic_check", agnosticJson(d.structure.agnostic)},
-                              {"cycle_heterogeneity", heterogeneityJson(d.structure.cycle_heterogeneity)}};
+                              {"cycle_heterogeneity", heterogeneityJson(d.structure.cycle_heterogeneity)},
+                              {"recording_wander", wanderJson(d.structure.recording_wander)}};
   json sh = json::array();
   for (const auto& s : d.shrinkage)
     sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
@@ -298,7 +305,7 @@ namespace {
 void writeRemaining(std::ostringstream& s, const TargetDiagnosis& d) {
   const StructureTest& st = d.structure;
   s << "### What remains after `" << d.final_law << "`\n\n"
-    << "Verdict class: **" << d.verdict_class << "**. Each test at a quarter of the family level (Bonferroni); "
+    << "Verdict class: **" << d.verdict_class << "**. Each test at a fifth of the family level (Bonferroni); "
     << (st.evidence.empty() ? std::string("none finds structure") : "structure found by: " + join(st.evidence, ", "))
     << ".\n\n| test | result |\n|---|---|\n";
   s << "| mean gap over the cycle (F-type test over " << st.cycles << " cycles) | p = " << fmt(st.p_value, 3)
@@ -330,6 +337,13 @@ void writeRemaining(std::ostringstream& s, const TargetDiagnosis& d) {
       << ", offset SD " << fixed(h.offset_sd, 0) << " N (" << h.note << ") |\n";
   else
     s << "not run: " << h.note << " |\n";
+  const RecordingWander& w = st.recording_wander;
+  s << "| wander within a recording | ";
+  if (w.run)
+    s << "p = " << fmt(w.p_value, 3) << (w.significant ? " (**significant**)" : "") << "; " << fixed(w.wander_sd, 0)
+      << " N (" << w.note << ") |\n";
+  else
+    s << "not run: " << w.note << " |\n";
   s << "\nThe noise floor is the scatter of the withheld residual between cycles at matched phase, kinematics and "
        "load: anything that changes from cycle to cycle at the same kinematics and load counts as noise there.\n\n";
   if (a.run && !a.importance.empty()) {

@@ -566,7 +566,8 @@ void traceDiagnosis(const TargetDiagnosis& d, BlindOutcome& out) {
       formatSignificant(st.noise_floor.rmse, 3) + " N, excess " + formatSignificant(100 * st.noise_floor.excess, 3) +
       "% [" + formatSignificant(100 * st.noise_floor.excess_lower, 3) + ", " +
       formatSignificant(100 * st.noise_floor.excess_upper, 3) + "]; cycles p " +
-      formatSignificant(st.cycle_heterogeneity.p_value, 3) + ")");
+      formatSignificant(st.cycle_heterogeneity.p_value, 3) + ", wander p " +
+      formatSignificant(st.recording_wander.p_value, 3) + ")");
 }
 
 // The injected size against its estimate at step 1 and the estimate's intervals (one injected effect).
