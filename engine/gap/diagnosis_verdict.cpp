@@ -139,8 +139,10 @@ std::string describeRemaining(const StructureTest& st) {
          " N).";
   const RecordingWander& w = st.recording_wander;
   if (w.run)
-    s += std::string(" Within a recording: ") + (w.significant ? "the offset wanders" : "no wander") +
-         " (thirds of cycles near in time, p = " + fmt(w.p_value, 3) + "; " + fmt(w.wander_sd, 3) + " N).";
+    s += std::string(" Within a recording: ") +
+         (w.significant ? "the offset wanders over time" : "no wander over time") +
+         " (a piecewise-linear trend against the quarter cycles' scatter, p = " + fmt(w.p_value, 3) + "; " +
+         fmt(w.wander_sd, 3) + " N RMS).";
   return s;
 }
 

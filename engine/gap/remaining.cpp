@@ -8,6 +8,9 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <sstream>
+
+#include <Eigen/Dense>
 
 #include "core/error.hpp"
 #include "core/strings.hpp"
@@ -309,8 +312,6 @@ NoiseFloor estimateNoiseFloor(const RemainingData& d, const RemainingOptions& o)
 namespace {
 
 constexpr int kSlots = 3;
-// Time scale of the wander test's weights, in cycle durations.
-constexpr double kWanderCycles = 1;
 
 // One cycle's slots (thirds by phase): the residual's offset and relative gain in each.
 struct SlotCycle {
@@ -465,168 +466,111 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
 
 namespace {
 
-// One third of a cycle: its mean in-sample residual (less, later, its activity's mean there) and time.
-struct Third {
-  int unit = 0, slot = 0;
-  double dev = 0, time = 0;
-};
-
-// Per recording, the thirds of its cycles that have every third (as slotCycles: outer fifths dropped),
-// each less the recording's mean at that third over its cycles with all thirds (the recording's mean curve
-// at this resolution: an offset of the whole recording is the mean-gap test's, and would only add to
-// every product here); and per activity, the median cycle duration.
-std::vector<std::vector<Third>> recordingThirds(const RemainingData& d, std::map<std::string, double>& duration) {
-  const int n_units = countUnits(d);
-  struct Sums {
-    double r = 0, t = 0;
-    int n = 0;
-  };
-  std::vector<std::array<Sums, kSlots>> sums(n_units);
-  std::vector<int> trial_of(n_units, -1);
-  std::vector<double> first(n_units, std::numeric_limits<double>::infinity()), last(n_units, -first[0]);
-  for (size_t t = 0; t < d.trials.size(); ++t)
-    for (size_t i = 0; i < d.unit[t].size(); ++i) {
-      const int u = d.unit[t][i];
-      const double ph = d.phase[t][i], r = d.fitted_residual[t][i];
-      if (u < 0) continue;
-      trial_of[u] = static_cast<int>(t);
-      first[u] = std::min(first[u], d.trials[t]->time[i]);
-      last[u] = std::max(last[u], d.trials[t]->time[i]);
-      if (!std::isfinite(ph) || !std::isfinite(r)) continue;
-      const int k = std::min(kSlots - 1, static_cast<int>(ph * kSlots));
-      const double x = ph * kSlots - k;
-      if (x < 0.2 || x > 0.8) continue;
-      Sums& sm = sums[u][k];
-      sm.r += r, sm.t += d.trials[t]->time[i], ++sm.n;
-    }
-  std::map<std::string, std::vector<double>> lengths;
-  std::vector<std::array<std::pair<double, int>, kSlots>> rec_mean(d.trials.size());
-  std::vector<bool> whole(n_units, false);
-  for (int u = 0; u < n_units; ++u) {
-    if (trial_of[u] < 0) continue;
-    lengths[d.unit_activity[u]].push_back(last[u] - first[u]);
-    bool ok = true;
-    for (int k = 0; k < kSlots; ++k) ok = ok && sums[u][k].n >= 5;
-    if (!ok) continue;
-    whole[u] = true;
-    auto& m = rec_mean[trial_of[u]];
-    for (int k = 0; k < kSlots; ++k) m[k].first += sums[u][k].r / sums[u][k].n, ++m[k].second;
-  }
-  for (auto& [act, v] : lengths) {
-    std::sort(v.begin(), v.end());
-    duration[act] = v[v.size() / 2];
-  }
-  std::vector<std::vector<Third>> out(d.trials.size());
-  for (int u = 0; u < n_units; ++u) {
-    if (!whole[u]) continue;
-    const auto& m = rec_mean[trial_of[u]];
-    for (int k = 0; k < kSlots; ++k)
-      out[trial_of[u]].push_back(
-          {u, k, sums[u][k].r / sums[u][k].n - m[k].first / m[k].second, sums[u][k].t / sums[u][k].n});
-  }
-  return out;
-}
-
-// A recording's thirds as the permutation test reads them: deviations by [cycle][slot] and the pairs of
-// different slots with their weights.
-struct WanderRecording {
-  std::vector<std::array<double, kSlots>> x;  // scaled deviations, per cycle of the recording
-  struct Pair {
-    int a, ka, b, kb;
-    double w;
-  };
-  std::vector<Pair> pairs;
-};
-
-double wanderStatistic(const std::vector<WanderRecording>& recs, const std::vector<std::array<std::vector<int>, kSlots>>& perm) {
-  double s = 0;
-  for (size_t r = 0; r < recs.size(); ++r)
-    for (const auto& p : recs[r].pairs)
-      s += p.w * recs[r].x[perm[r][p.ka][p.a]][p.ka] * recs[r].x[perm[r][p.kb][p.b]][p.kb];
-  return s;
-}
+// Slots of a cycle for the wander test: quarters by phase, their outer fifths dropped (the used parts of
+// neighbouring quarters of a 1.1 s gait cycle are 0.11 s -- two correlation times of the smooth noise --
+// apart, so their means' noise correlates by about 0.02).
+constexpr int kWanderSlots = 4;
 
 }  // namespace
 
 RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptions& o) {
   RecordingWander w;
-  std::map<std::string, double> duration;
-  const auto thirds = recordingThirds(d, duration);
-  // Each activity's variance of the deviations scales them (activities differ in noise).
-  std::map<std::string, std::pair<double, int>> var;
-  for (const auto& rec : thirds)
-    for (const Third& th : rec) {
-      auto& v = var[d.unit_activity[th.unit]];
-      v.first += th.dev * th.dev, ++v.second;
+  const int n_units = countUnits(d);
+  struct Sums {
+    double r = 0, t = 0;
+    int n = 0;
+  };
+  std::vector<std::array<Sums, kWanderSlots>> sums(n_units);
+  std::vector<int> trial_of(n_units, -1);
+  for (size_t t = 0; t < d.trials.size(); ++t)
+    for (size_t i = 0; i < d.unit[t].size(); ++i) {
+      const int u = d.unit[t][i];
+      if (u < 0) continue;
+      trial_of[u] = static_cast<int>(t);
+      const double ph = d.phase[t][i], r = d.fitted_residual[t][i];
+      if (!std::isfinite(ph) || !std::isfinite(r)) continue;
+      const int k = std::clamp(static_cast<int>(ph * kWanderSlots), 0, kWanderSlots - 1);
+      const double x = ph * kWanderSlots - k;
+      if (x < 0.2 || x > 0.8) continue;
+      sums[u][k].r += r, sums[u][k].t += d.trials[t]->time[i], ++sums[u][k].n;
     }
-  std::vector<WanderRecording> recs;
-  double cov = 0, wsum = 0;
-  for (const auto& rec : thirds) {
-    std::map<int, int> index;  // unit -> cycle of the recording
-    for (const Third& th : rec) index.emplace(th.unit, static_cast<int>(index.size()));
-    if (index.size() < 2) continue;
-    const auto& v = var[d.unit_activity[rec.front().unit]];
-    const double scale = v.first > 0 ? std::sqrt(v.first / v.second) : 1.0;
-    const double lambda = std::max(kWanderCycles * duration[d.unit_activity[rec.front().unit]], 1e-6);
-    WanderRecording wr;
-    wr.x.resize(index.size());
-    for (const Third& th : rec) wr.x[index[th.unit]][th.slot] = th.dev / scale;
-    for (size_t i = 0; i < rec.size(); ++i)
-      for (size_t j = i + 1; j < rec.size(); ++j) {
-        if (rec[i].slot == rec[j].slot) continue;
-        const double wt = std::exp(-std::abs(rec[i].time - rec[j].time) / lambda);
-        wr.pairs.push_back({index[rec[i].unit], rec[i].slot, index[rec[j].unit], rec[j].slot, wt});
-        cov += wt * rec[i].dev * rec[j].dev, wsum += wt;
+  // Per recording, the cells (cycle, quarter) that hold at least a fifth of the recording's median frames
+  // per cell (a cycle cut by the recording's edge keeps its whole quarters): their mean residual and time.
+  std::vector<std::vector<int>> counts(d.trials.size());
+  for (int u = 0; u < n_units; ++u)
+    if (trial_of[u] >= 0)
+      for (int k = 0; k < kWanderSlots; ++k)
+        if (sums[u][k].n > 0) counts[trial_of[u]].push_back(sums[u][k].n);
+  double ss_trend = 0, ss_error = 0, df_trend = 0, df_error = 0, n_cells = 0;
+  for (size_t t = 0; t < d.trials.size(); ++t) {
+    if (counts[t].empty()) continue;
+    std::sort(counts[t].begin(), counts[t].end());
+    const int min_frames = std::max(5, counts[t][counts[t].size() / 2] / 5);
+    std::vector<int> slot;
+    std::vector<double> y, time, knots;
+    for (int u = 0; u < n_units; ++u) {
+      if (trial_of[u] != static_cast<int>(t)) continue;
+      double tc = 0;
+      int nc = 0;
+      for (int k = 0; k < kWanderSlots; ++k)
+        if (sums[u][k].n >= min_frames) {
+          slot.push_back(k);
+          y.push_back(sums[u][k].r / sums[u][k].n);
+          time.push_back(sums[u][k].t / sums[u][k].n);
+          tc += time.back(), ++nc;
+        }
+      if (nc > 0) knots.push_back(tc / nc);
+    }
+    const int n = static_cast<int>(y.size()), m = static_cast<int>(knots.size());
+    if (m < 2) continue;
+    std::sort(knots.begin(), knots.end());
+    // Quarters only, against quarters + a piecewise-linear function of time with a knot at each cycle's
+    // middle (hat functions; their sum is one, so the last is left out: the quarters carry the constant).
+    Eigen::MatrixXd x0 = Eigen::MatrixXd::Zero(n, kWanderSlots), x1(n, kWanderSlots + m - 1);
+    for (int i = 0; i < n; ++i) {
+      x0(i, slot[i]) = 1;
+      x1.row(i).head(kWanderSlots) = x0.row(i);
+      for (int j = 0; j + 1 < m; ++j) {
+        const double lo = j > 0 ? knots[j - 1] : -std::numeric_limits<double>::infinity();
+        const double hi = j + 1 < m ? knots[j + 1] : std::numeric_limits<double>::infinity();
+        const double ti = time[i];
+        double h = 0;
+        if (ti <= knots[j]) h = j == 0 ? 1.0 : std::max(0.0, (ti - lo) / (knots[j] - lo));
+        else h = j + 1 == m ? 1.0 : std::max(0.0, (hi - ti) / (hi - knots[j]));
+        x1(i, kWanderSlots + j) = h;
       }
-    w.units += static_cast<int>(index.size());
+    }
+    const Eigen::Map<const Eigen::VectorXd> yv(y.data(), n);
+    // Complete orthogonal decompositions: least squares where a quarter has no cell (a rank-deficient x0).
+    const auto qr0 = x0.completeOrthogonalDecomposition(), qr1 = x1.completeOrthogonalDecomposition();
+    const int r0 = static_cast<int>(qr0.rank()), r1 = static_cast<int>(qr1.rank());
+    if (r1 <= r0 || n - r1 < 1) continue;
+    const double sse0 = (yv - x0 * qr0.solve(yv)).squaredNorm(), sse1 = (yv - x1 * qr1.solve(yv)).squaredNorm();
+    ss_trend += std::max(0.0, sse0 - sse1);
+    ss_error += sse1;
+    df_trend += r1 - r0;
+    df_error += n - r1;
+    n_cells += n;
+    w.units += m;
     ++w.recordings;
-    recs.push_back(std::move(wr));
   }
-  if (recs.empty()) {
-    w.note = "needs a recording with at least 2 cycles with every third of the cycle";
+  if (w.recordings == 0 || !(ss_error > 0)) {
+    w.note = "needs a recording with at least 2 cycles and more quarters than cycles";
     return w;
   }
-  std::vector<std::array<std::vector<int>, kSlots>> perm(recs.size());
-  double count = 1;
-  for (size_t r = 0; r < recs.size(); ++r)
-    for (int k = 0; k < kSlots; ++k) {
-      perm[r][k].resize(recs[r].x.size());
-      std::iota(perm[r][k].begin(), perm[r][k].end(), 0);
-      if (k > 0)  // the first third may stay: only the assignment between thirds matters
-        for (size_t j = 2; j <= recs[r].x.size() && count <= 1e7; ++j) count *= double(j);
-    }
-  w.statistic = wanderStatistic(recs, perm);
-  const double tie = 1e-9 * std::abs(w.statistic);
-  int ge = 0, total = 0;
-  if (count <= 5000) {
-    auto cur = perm;
-    while (true) {
-      ge += wanderStatistic(recs, cur) >= w.statistic - tie;
-      ++total;
-      size_t r = 0;
-      int k = 1;
-      while (r < cur.size() && !std::next_permutation(cur[r][k].begin(), cur[r][k].end()))
-        if (++k == kSlots) k = 1, ++r;
-      if (r == cur.size()) break;
-    }
-  } else {
-    std::mt19937_64 rng(20150101);
-    auto cur = perm;
-    ge = 1, total = 1;
-    for (int i = 0; i < 2000; ++i) {
-      for (auto& rp : cur)
-        for (int k = 1; k < kSlots; ++k) std::shuffle(rp[k].begin(), rp[k].end(), rng);
-      ge += wanderStatistic(recs, cur) >= w.statistic - tie;
-      ++total;
-    }
-  }
-  w.p_value = double(ge) / total;
-  w.dof = total;
+  const double ms_error = ss_error / df_error;
+  w.statistic = (ss_trend / df_trend) / ms_error;
+  w.dof_trend = df_trend;
+  w.dof_error = df_error;
+  w.p_value = fisherSurvival(w.statistic, df_trend, df_error);
   w.significant = w.p_value < o.alpha;
-  w.wander_sd = wsum > 0 ? std::sqrt(std::max(0.0, cov / wsum)) : 0.0;
+  w.wander_sd = std::sqrt(std::max(0.0, (ss_trend - df_trend * ms_error) / n_cells));
   w.run = true;
-  w.note = "thirds of " + std::to_string(w.units) + " cycles in " + std::to_string(w.recordings) + " recordings, " +
-           std::to_string(total) + " assignments";
+  std::ostringstream note;
+  note.precision(3);
+  note << "F = " << w.statistic << " on " << df_trend << " and " << df_error << " degrees of freedom: "
+       << n_cells << " quarters of " << w.units << " cycles in " << w.recordings << " recordings";
+  w.note = note.str();
   return w;
 }
 

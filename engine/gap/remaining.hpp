@@ -13,8 +13,8 @@
 //    withheld error itself, with intervals over cycles;
 //  - cycle-to-cycle heterogeneity: whether the residual's offset and gain differ between cycles of an
 //    activity (the thirds of a cycle agree beyond chance);
-//  - a slow wander within a recording: whether the residual's offset changes over the recording's time
-//    (the thirds of cycles near in time agree beyond chance).
+//  - a wander within a recording: whether the residual's offset moves over the recording's time (cycle
+//    to cycle, or within long cycles) more than the uncertainty of a quarter cycle's mean allows.
 
 #include <string>
 #include <vector>
@@ -98,28 +98,25 @@ struct CycleHeterogeneity {
   double gain_sd = 0, offset_sd = 0;
 };
 
-/// Whether the residual wanders slowly within a recording (a drift of the load cells' zero, a subject's
-/// loading changing over a trial): every third of a cycle (by phase, its outer fifths dropped, as in
-/// CycleHeterogeneity) gets its mean in-sample residual less the recording's mean at that third (its mean
-/// curve: a model error common to the cycles, or an offset of the whole recording, which the mean-gap
-/// test judges); within a recording, thirds near in time agree
-/// when the residual wanders. Statistic: over the recording's pairs of thirds of different positions in
-/// the cycle, the product of their deviations (each scaled by its activity's variance of them) weighted by
-/// exp(-|time apart| / the activity's median cycle duration): a cycle's own offset counts through its thirds,
-/// a wander across cycles through the neighbours'. Null: each third's deviations go to the recording's
-/// cycles at random (a permutation test; the noise's correlation time is handled by the spacing of the
-/// thirds, as in CycleHeterogeneity, and the statistic's like is itself under another assignment). Pairs
-/// of the same third of two cycles are left out: centring on the mean curve makes them anticorrelated.
+/// Whether the residual wanders over a recording's time (a slow drift of the load cells' zero, a subject's
+/// loading changing over a trial, a gain per cycle): each quarter of a cycle (by phase, its outer fifths
+/// dropped so that neighbouring quarters' noise is independent; a quarter cut by the recording's edge is
+/// kept if it holds a fifth of the recording's median frames) gets its mean in-sample residual and time.
+/// Per recording, these are regressed on the quarters (the recording's mean curve: a model error common to
+/// its cycles, or an offset of the whole recording, which the mean-gap test judges) with and without a
+/// piecewise-linear function of time with a knot at each cycle's middle, and the F test of that function
+/// (pooled over recordings) compares what it takes up with the quarters' own scatter about the fit: the
+/// cycles' offsets and the trend within and between them against the uncertainty of a quarter's mean, like
+/// with like, with no model of the noise beyond the independence of the quarters.
 struct RecordingWander {
   bool run = false;
   std::string note;
   int recordings = 0, units = 0;  ///< Recordings with at least two cycles, and their cycles.
-  double statistic = 0;
-  double dof = 0;                 ///< Assignments the permutation null counted.
+  double statistic = 0;           ///< F.
+  double dof_trend = 0, dof_error = 0;
   double p_value = 1;
   bool significant = false;
-  /// Size of what wanders, N: the square root of the weighted mean product of near thirds' deviations
-  /// (their covariance; 0 when negative).
+  /// RMS of the fitted wander over the quarters beyond what the noise gives it, N.
   double wander_sd = 0;
 };
 

@@ -118,7 +118,8 @@ json heterogeneityJson(const CycleHeterogeneity& h) {
 
 json wanderJson(const RecordingWander& w) {
   return {{"run", w.run},         {"note", w.note},           {"recordings", w.recordings},
-          {"cycles", w.units},    {"statistic", jsonNumber(w.statistic)}, {"p_value", jsonNumber(w.p_value)},
+          {"cycles", w.units},    {"statistic", jsonNumber(w.statistic)}, {"dof_trend", jsonNumber(w.dof_trend)},
+          {"dof_error", jsonNumber(w.dof_error)}, {"p_value", jsonNumber(w.p_value)},
           {"significant", w.significant}, {"wander_sd_N", jsonNumber(w.wander_sd)}};
 }
 
