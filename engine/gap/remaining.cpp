@@ -471,10 +471,16 @@ namespace {
 // apart, so their means' noise correlates by about 0.02).
 constexpr int kWanderSlots = 4;
 
-}  // namespace
+// One recording's cells (cycle, quarter): the mean in-sample residual, the quarter, the mean time, and the
+// middle of each cycle (the knots of the trend).
+struct WanderCells {
+  std::vector<int> slot;
+  std::vector<double> y, time, knots;
+};
 
-RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptions& o) {
-  RecordingWander w;
+// Per recording, the cells that hold at least a fifth of the recording's median frames per cell (a cycle
+// cut by the recording's edge keeps its whole quarters).
+std::vector<WanderCells> wanderCells(const RemainingData& d) {
   const int n_units = countUnits(d);
   struct Sums {
     double r = 0, t = 0;
@@ -494,62 +500,83 @@ RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptio
       if (x < 0.2 || x > 0.8) continue;
       sums[u][k].r += r, sums[u][k].t += d.trials[t]->time[i], ++sums[u][k].n;
     }
-  // Per recording, the cells (cycle, quarter) that hold at least a fifth of the recording's median frames
-  // per cell (a cycle cut by the recording's edge keeps its whole quarters): their mean residual and time.
-  std::vector<std::vector<int>> counts(d.trials.size());
-  for (int u = 0; u < n_units; ++u)
-    if (trial_of[u] >= 0)
-      for (int k = 0; k < kWanderSlots; ++k)
-        if (sums[u][k].n > 0) counts[trial_of[u]].push_back(sums[u][k].n);
-  double ss_trend = 0, ss_error = 0, df_trend = 0, df_error = 0, n_cells = 0;
+  std::vector<WanderCells> out(d.trials.size());
   for (size_t t = 0; t < d.trials.size(); ++t) {
-    if (counts[t].empty()) continue;
-    std::sort(counts[t].begin(), counts[t].end());
-    const int min_frames = std::max(5, counts[t][counts[t].size() / 2] / 5);
-    std::vector<int> slot;
-    std::vector<double> y, time, knots;
+    std::vector<int> counts;
+    for (int u = 0; u < n_units; ++u)
+      if (trial_of[u] == static_cast<int>(t))
+        for (int k = 0; k < kWanderSlots; ++k)
+          if (sums[u][k].n > 0) counts.push_back(sums[u][k].n);
+    if (counts.empty()) continue;
+    std::sort(counts.begin(), counts.end());
+    const int min_frames = std::max(5, counts[counts.size() / 2] / 5);
+    WanderCells& c = out[t];
     for (int u = 0; u < n_units; ++u) {
       if (trial_of[u] != static_cast<int>(t)) continue;
       double tc = 0;
       int nc = 0;
       for (int k = 0; k < kWanderSlots; ++k)
         if (sums[u][k].n >= min_frames) {
-          slot.push_back(k);
-          y.push_back(sums[u][k].r / sums[u][k].n);
-          time.push_back(sums[u][k].t / sums[u][k].n);
-          tc += time.back(), ++nc;
+          c.slot.push_back(k);
+          c.y.push_back(sums[u][k].r / sums[u][k].n);
+          c.time.push_back(sums[u][k].t / sums[u][k].n);
+          tc += c.time.back(), ++nc;
         }
-      if (nc > 0) knots.push_back(tc / nc);
+      if (nc > 0) c.knots.push_back(tc / nc);
     }
-    const int n = static_cast<int>(y.size()), m = static_cast<int>(knots.size());
+    std::sort(c.knots.begin(), c.knots.end());
+  }
+  return out;
+}
+
+// Piecewise-linear hat function j of the knots at t (flat beyond the end knots).
+double hat(const std::vector<double>& knots, int j, double t) {
+  const int m = static_cast<int>(knots.size());
+  if (t <= knots[j]) return j == 0 ? 1.0 : std::max(0.0, (t - knots[j - 1]) / (knots[j] - knots[j - 1]));
+  return j + 1 == m ? 1.0 : std::max(0.0, (knots[j + 1] - t) / (knots[j + 1] - knots[j]));
+}
+
+// Sums of squared residuals of one recording's cells about the quarters (the mean curve), and about the
+// quarters plus the trend (hat functions at the cycles' middles; their sum is one, so the last is
+// left out: the quarters carry the constant); with the two models' ranks.
+struct WanderFit {
+  double sse_curve = 0, sse_trend = 0;
+  int rank_curve = 0, rank_trend = 0;
+};
+
+WanderFit fitWander(const WanderCells& c) {
+  const int n = static_cast<int>(c.y.size()), m = static_cast<int>(c.knots.size());
+  Eigen::MatrixXd x0 = Eigen::MatrixXd::Zero(n, kWanderSlots), x1(n, kWanderSlots + m - 1);
+  for (int i = 0; i < n; ++i) {
+    x0(i, c.slot[i]) = 1;
+    x1.row(i).head(kWanderSlots) = x0.row(i);
+    for (int j = 0; j + 1 < m; ++j) x1(i, kWanderSlots + j) = hat(c.knots, j, c.time[i]);
+  }
+  const Eigen::Map<const Eigen::VectorXd> y(c.y.data(), n);
+  // Complete orthogonal decompositions: least squares where a quarter has no cell (a rank-deficient x0).
+  const auto qr0 = x0.completeOrthogonalDecomposition(), qr1 = x1.completeOrthogonalDecomposition();
+  WanderFit f;
+  f.sse_curve = (y - x0 * qr0.solve(y)).squaredNorm();
+  f.sse_trend = (y - x1 * qr1.solve(y)).squaredNorm();
+  f.rank_curve = static_cast<int>(qr0.rank());
+  f.rank_trend = static_cast<int>(qr1.rank());
+  return f;
+}
+
+}  // namespace
+
+RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptions& o) {
+  RecordingWander w;
+  double ss_trend = 0, ss_error = 0, df_trend = 0, df_error = 0, n_cells = 0;
+  for (const WanderCells& c : wanderCells(d)) {
+    const int n = static_cast<int>(c.y.size()), m = static_cast<int>(c.knots.size());
     if (m < 2) continue;
-    std::sort(knots.begin(), knots.end());
-    // Quarters only, against quarters + a piecewise-linear function of time with a knot at each cycle's
-    // middle (hat functions; their sum is one, so the last is left out: the quarters carry the constant).
-    Eigen::MatrixXd x0 = Eigen::MatrixXd::Zero(n, kWanderSlots), x1(n, kWanderSlots + m - 1);
-    for (int i = 0; i < n; ++i) {
-      x0(i, slot[i]) = 1;
-      x1.row(i).head(kWanderSlots) = x0.row(i);
-      for (int j = 0; j + 1 < m; ++j) {
-        const double lo = j > 0 ? knots[j - 1] : -std::numeric_limits<double>::infinity();
-        const double hi = j + 1 < m ? knots[j + 1] : std::numeric_limits<double>::infinity();
-        const double ti = time[i];
-        double h = 0;
-        if (ti <= knots[j]) h = j == 0 ? 1.0 : std::max(0.0, (ti - lo) / (knots[j] - lo));
-        else h = j + 1 == m ? 1.0 : std::max(0.0, (hi - ti) / (hi - knots[j]));
-        x1(i, kWanderSlots + j) = h;
-      }
-    }
-    const Eigen::Map<const Eigen::VectorXd> yv(y.data(), n);
-    // Complete orthogonal decompositions: least squares where a quarter has no cell (a rank-deficient x0).
-    const auto qr0 = x0.completeOrthogonalDecomposition(), qr1 = x1.completeOrthogonalDecomposition();
-    const int r0 = static_cast<int>(qr0.rank()), r1 = static_cast<int>(qr1.rank());
-    if (r1 <= r0 || n - r1 < 1) continue;
-    const double sse0 = (yv - x0 * qr0.solve(yv)).squaredNorm(), sse1 = (yv - x1 * qr1.solve(yv)).squaredNorm();
-    ss_trend += std::max(0.0, sse0 - sse1);
-    ss_error += sse1;
-    df_trend += r1 - r0;
-    df_error += n - r1;
+    const WanderFit f = fitWander(c);
+    if (f.rank_trend <= f.rank_curve || n - f.rank_trend < 1) continue;
+    ss_trend += std::max(0.0, f.sse_curve - f.sse_trend);
+    ss_error += f.sse_trend;
+    df_trend += f.rank_trend - f.rank_curve;
+    df_error += n - f.rank_trend;
     n_cells += n;
     w.units += m;
     ++w.recordings;

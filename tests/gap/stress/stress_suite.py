@@ -142,6 +142,8 @@ def run_one(kneesim, sources, k, case, seed, work, areas, data, template):
         "agnostic": bool(ag.get("significant", False)), "evidence": rs.get("evidence", []),
         "floor_consistent": bool(nf.get("consistent", False)), "floor_above": bool(nf.get("above", False)),
         "excess_share": nf.get("excess_share"), "excess_share_upper": nf.get("excess_share_upper"),
+        "floor_cycles_needed": nf.get("cycles_needed"),
+        "wander_p": rs.get("recording_wander", {}).get("p_value"), "mean_gap_p": rs.get("p_value"),
         "carriers": [i["signal"] for i in ag.get("importance", [])[:3]] if ag.get("significant") else [],
     }
     shutil.rmtree(d, ignore_errors=True)
