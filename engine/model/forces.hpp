@@ -78,8 +78,8 @@ struct GeometryPath {
 /// A muscle of one of the types kneesim evaluates (see Muscle::type).
 struct Muscle {
   std::string name;
-  /// The model file's class name: Schutte1993Muscle_Deprecated, Thelen2003Muscle or
-  /// Millard2012EquilibriumMuscle.
+  /// The model file's class name: Schutte1993Muscle_Deprecated, Thelen2003Muscle,
+  /// Thelen2003Muscle_Deprecated or Millard2012EquilibriumMuscle.
   std::string type;
   /// False for OpenSim's isDisabled = true or appliesForce = false.
   bool enabled = true;

@@ -22,7 +22,7 @@ FunctionPtr parseFunctionIfAny(const Node& el) {
 
 const std::set<std::string>& muscleTypes() {
   static const std::set<std::string> types = {"Schutte1993Muscle_Deprecated", "Thelen2003Muscle",
-                                              "Millard2012EquilibriumMuscle"};
+                                              "Thelen2003Muscle_Deprecated", "Millard2012EquilibriumMuscle"};
   return types;
 }
 

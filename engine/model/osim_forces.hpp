@@ -5,7 +5,7 @@
 // force_set_files name them).
 //
 // Muscles of the types kneesim evaluates (Schutte1993Muscle_Deprecated, Thelen2003Muscle,
-// Millard2012EquilibriumMuscle) and CoordinateActuators become Model::muscles and
+// Thelen2003Muscle_Deprecated, Millard2012EquilibriumMuscle) and CoordinateActuators become Model::muscles and
 // Model::actuators; every other force is listed in Model::ignored and kept out.
 
 #include <functional>

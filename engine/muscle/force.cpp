@@ -1,5 +1,6 @@
-// Rigid-tendon muscle force for static optimisation: Thelen2003Muscle, Millard2012EquilibriumMuscle
-// and Schutte1993Muscle_Deprecated as OpenSim evaluates calcInextensibleTendonActiveFiberForce.
+// Rigid-tendon muscle force for static optimisation: Thelen2003Muscle, Millard2012EquilibriumMuscle,
+// Schutte1993Muscle_Deprecated and Thelen2003Muscle_Deprecated as OpenSim evaluates
+// calcInextensibleTendonActiveFiberForce.
 #include "muscle/force.hpp"
 
 #include <algorithm>
@@ -71,25 +72,42 @@ MuscleForceSet::MuscleForceSet(const model::Model& model) {
       if (!(p.fv_threshold > 1.0 / p.flen)) refuse(m, "expected fv_linear_extrap_threshold > 1/Flen");
     } else if (m.type == "Millard2012EquilibriumMuscle") {
       readMillard(m, p);
-    } else if (m.type == "Schutte1993Muscle_Deprecated") {
-      p.type = Type::Schutte1993;
-      p.damping = param(m, "damping", 0.1);
-      auto curve = [&](const char* name) -> model::FunctionPtr {
-        auto it = m.functions.find(name);
-        return it == m.functions.end() ? nullptr : it->second;
-      };
-      p.tendon_fl = curve("tendon_force_length_curve");
-      p.active_fl = curve("active_force_length_curve");
-      p.passive_fl = curve("passive_force_length_curve");
-      if (!p.tendon_fl || !p.active_fl)
-        refuse(m, "expected its tendon_force_length_curve and active_force_length_curve, got " +
-                      std::string(!p.tendon_fl ? "no tendon curve" : "no active curve"));
+    } else if (m.type == "Schutte1993Muscle_Deprecated" || m.type == "Thelen2003Muscle_Deprecated") {
+      readDeprecated(m, p);
     } else {
-      refuse(m, "expected a Thelen2003Muscle, Millard2012EquilibriumMuscle or Schutte1993Muscle_Deprecated, got " +
-                    m.type);
+      refuse(m,
+             "expected a Thelen2003Muscle, Millard2012EquilibriumMuscle, Schutte1993Muscle_Deprecated or "
+             "Thelen2003Muscle_Deprecated, got " +
+                 m.type);
     }
     muscles_.push_back(std::move(p));
   }
+}
+
+void MuscleForceSet::readDeprecated(const model::Muscle& m, Params& p) {
+  if (m.type == "Thelen2003Muscle_Deprecated") {
+    // Thelen2003Muscle_Deprecated's defaults (not Thelen2003Muscle's).
+    p.type = Type::Thelen2003Deprecated;
+    p.k_active = param(m, "KshapeActive", 0.5);
+    p.k_passive = param(m, "KshapePassive", 4.0);
+    p.fmax_muscle_strain = param(m, "FmaxMuscleStrain", 0.6);
+    p.fmax_tendon_strain = param(m, "FmaxTendonStrain", 0.033);
+    if (!(p.k_active > 0) || !(p.fmax_muscle_strain > 0) || !(p.fmax_tendon_strain > 0))
+      refuse(m, "expected positive KshapeActive, FmaxMuscleStrain and FmaxTendonStrain");
+    return;
+  }
+  p.type = Type::Schutte1993;
+  p.damping = param(m, "damping", 0.1);
+  auto curve = [&](const char* name) -> model::FunctionPtr {
+    auto it = m.functions.find(name);
+    return it == m.functions.end() ? nullptr : it->second;
+  };
+  p.tendon_fl = curve("tendon_force_length_curve");
+  p.active_fl = curve("active_force_length_curve");
+  p.passive_fl = curve("passive_force_length_curve");
+  if (!p.tendon_fl || !p.active_fl)
+    refuse(m, "expected its tendon_force_length_curve and active_force_length_curve, got " +
+                  std::string(!p.tendon_fl ? "no tendon curve" : "no active curve"));
 }
 
 void MuscleForceSet::readMillard(const model::Muscle& m, Params& p) {
@@ -191,8 +209,8 @@ double MuscleForceSet::calcMillard(const Params& p, double a, double lce, double
 
 double MuscleForceSet::calcRigidTendonForce(int i, double a, double length, double speed) const {
   const Params& p = muscles_[i];
-  if (p.type == Type::Schutte1993) {
-    const double iso = calcSchutteIsometric(p, a, length);
+  if (p.type == Type::Schutte1993 || p.type == Type::Thelen2003Deprecated) {
+    const double iso = calcDeprecatedIsometric(p, a, length);
     // The deprecated muscles' generic force-velocity factor at the shortening velocity
     // -cos(phi_opt) Ldot, normalised by vmax lopt.
     const double v = -std::cos(p.phi_opt) * speed / (p.vmax * p.lopt);

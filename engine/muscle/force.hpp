@@ -3,9 +3,10 @@
 // calcInextensibleTendonActiveFiberForce): the force along the tendon that activation a produces
 // at a given path length and lengthening speed, the tendon taken as rigid, for
 // Thelen2003Muscle (Thelen, J Biomech Eng 125:70-77, 2003), Millard2012EquilibriumMuscle
-// (Millard et al., J Biomech Eng 135:021005, 2013) and Schutte1993Muscle_Deprecated (Schutte
-// et al., 1993; OpenSim's deprecated muscles use their isometric equilibrium with the elastic
-// tendon, passive fibre force included, times a generic force-velocity factor).
+// (Millard et al., J Biomech Eng 135:021005, 2013), and Schutte1993Muscle_Deprecated (Schutte
+// et al., 1993) and Thelen2003Muscle_Deprecated (OpenSim's deprecated muscles use their isometric
+// equilibrium with the elastic tendon, passive fibre force included, times a generic
+// force-velocity factor).
 //
 // The result is a * F(L, Ldot) with F the force at full activation (clamped activations aside),
 // which makes static optimisation's muscle forces linear in activation.
@@ -35,7 +36,7 @@ class MuscleForceSet {
   double calcRigidTendonFiberLength(int i, double length) const;
 
  private:
-  enum class Type { Thelen2003, Millard2012, Schutte1993 };
+  enum class Type { Thelen2003, Millard2012, Schutte1993, Thelen2003Deprecated };
   struct Params {
     explicit Params(const model::Muscle& m);
     Type type = Type::Thelen2003;
@@ -43,6 +44,7 @@ class MuscleForceSet {
     double height = 0, max_pennation = 0, min_fiber_length = 0;  // fixed-width pennation model
     double min_activation = 0;
     double k_active = 0.45, af = 0.25, flen = 1.4, fv_threshold = 0.95;  // Thelen
+    double k_passive = 4.0, fmax_muscle_strain = 0.6, fmax_tendon_strain = 0.033;  // Thelen, deprecated
     BezierCurve active_force_length, force_velocity;                     // Millard
     model::FunctionPtr tendon_fl, active_fl, passive_fl;                 // Schutte (passive may be null)
     double damping = 0.1;
@@ -50,9 +52,12 @@ class MuscleForceSet {
   /// Millard2012EquilibriumMuscle's curves from its properties, shaped as OpenSim 4 shapes them
   /// for the muscle's variant (damped or classic Hill, rigid or elastic tendon).
   static void readMillard(const model::Muscle& m, Params& p);
+  /// The deprecated classes' parameters: Schutte1993's curves, Thelen2003_Deprecated's shape factors.
+  static void readDeprecated(const model::Muscle& m, Params& p);
   double calcThelen(const Params& p, double a, double fiber_length, double fiber_velocity) const;
   double calcMillard(const Params& p, double a, double fiber_length, double fiber_velocity) const;
-  double calcSchutteIsometric(const Params& p, double a, double length) const;
+  /// OpenSim's computeIsometricForce of a deprecated muscle (force_deprecated.cpp).
+  double calcDeprecatedIsometric(const Params& p, double a, double length) const;
   double calcPennationAngle(const Params& p, double fiber_length) const;
   std::vector<Params> muscles_;
 };

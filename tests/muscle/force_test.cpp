@@ -177,6 +177,53 @@ TEST(MuscleForceSet, SchutteIsometricForceBalancesTendonAndFibres) {
   }
 }
 
+// Thelen2003Muscle_Deprecated's isometric force from Thelen 2003's curves as that class writes them
+// (Gaussian active curve, exponential passive curve, exponential-linear tendon plus 0.001 (1 + strain)),
+// its equilibrium found here by bisection; the deprecated classes' force-velocity factor on top.
+TEST(MuscleForceSet, ThelenDeprecatedIsometricForceBalancesTendonAndFibres) {
+  model::Muscle m = makeMuscle("Thelen2003Muscle_Deprecated", 0.15);
+  m.optimal_fiber_length = 0.0858;  // arm26's BRA, with a pennation angle
+  m.tendon_slack_length = 0.0535;
+  m.max_isometric_force = 987.26;
+  m.parameters["KshapeActive"] = 0.5;
+  m.parameters["KshapePassive"] = 4.0;
+  m.parameters["FmaxMuscleStrain"] = 0.6;
+  m.parameters["FmaxTendonStrain"] = 0.033;
+  const muscle::MuscleForceSet forces(modelWith(m));
+  const double lopt = m.optimal_fiber_length, lts = m.tendon_slack_length, F0 = m.max_isometric_force;
+  const double width = lopt * std::sin(0.15);
+  auto active = [](double ln) { return std::exp(-(ln - 1) * (ln - 1) / 0.5); };
+  auto passive = [](double ln) {
+    return ln > 1.6 ? 1.0 + 4.0 / 0.6 * (ln - 1.6) : std::exp(4.0 * (ln - 1) / 0.6) / std::exp(4.0);
+  };
+  auto tendon = [](double e) {
+    const double toe = 0.609 * 0.033;
+    const double f = e > toe ? 1.712 / 0.033 * (e - toe) + 0.333333
+                     : e > 0 ? 0.333333 * (std::exp(3 * e / toe) - 1) / (std::exp(3.0) - 1)
+                             : 0.0;
+    return f + 0.001 * (1 + e);
+  };
+  const double fv0 = 1.8 - 1.8 / (1.0 + std::exp(0.04 / 0.18));
+  for (double L : {0.125, 0.135, 0.145, 0.16, 0.19, 0.215}) {  // fibres short, optimal, long, beyond 1.6 lopt
+    auto fiberForce = [&](double lce) {
+      return (active(lce / lopt) + passive(lce / lopt)) * F0 * std::cos(std::asin(width / lce));
+    };
+    auto imbalance = [&](double lce) {
+      return tendon((L - lce * std::cos(std::asin(width / lce))) / lts - 1) * F0 - fiberForce(lce);
+    };
+    double lo = width * 1.0001, hi = (L - lts) / std::cos(std::atan(width / (L - lts)));
+    ASSERT_GT(imbalance(lo), 0) << L;
+    ASSERT_LT(imbalance(hi), 0) << L;
+    for (int i = 0; i < 200; ++i) (imbalance(0.5 * (lo + hi)) > 0 ? lo : hi) = 0.5 * (lo + hi);
+    // OpenSim stops when the two forces agree within 0.01 N.
+    EXPECT_NEAR(forces.calcRigidTendonForce(0, 1.0, L, 0.0), fiberForce(0.5 * (lo + hi)) * fv0, 0.02) << "L = " << L;
+  }
+  // Shortening at 2 optimal lengths per second: the generic factor 1.8 - 1.8 / (1 + e^((0.04 - v) / 0.18)).
+  const double v = std::cos(0.15) * 2 * lopt / (10 * lopt);
+  EXPECT_NEAR(forces.calcRigidTendonForce(0, 1.0, 0.145, -2 * lopt) / forces.calcRigidTendonForce(0, 1.0, 0.145, 0.0),
+              (1.8 - 1.8 / (1.0 + std::exp((0.04 - v) / 0.18))) / fv0, 1e-12);
+}
+
 TEST(MuscleForceSet, ParametersOpenSimRefusesAreOneLineErrors) {
   model::Muscle m = makeMuscle("Thelen2003Muscle");
   m.parameters["Flen"] = 1.0;
@@ -186,5 +233,10 @@ TEST(MuscleForceSet, ParametersOpenSimRefusesAreOneLineErrors) {
   EXPECT_NE(msg.find("expected Flen > 1, got 1"), std::string::npos) << msg;
   model::Muscle s = makeMuscle("Schutte1993Muscle_Deprecated");
   EXPECT_NE(test::inputErrorOf([&] { muscle::MuscleForceSet forces(modelWith(s)); }).find("tendon_force_length_curve"),
+            std::string::npos);
+  model::Muscle d = makeMuscle("Thelen2003Muscle_Deprecated");
+  d.parameters["FmaxMuscleStrain"] = 0.0;
+  EXPECT_NE(test::inputErrorOf([&] { muscle::MuscleForceSet forces(modelWith(d)); })
+                .find("expected positive KshapeActive, FmaxMuscleStrain and FmaxTendonStrain"),
             std::string::npos);
 }
