@@ -42,7 +42,7 @@ double finiteChild(const xml::Node& node, const char* tag, double fallback, cons
 void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   xml::checkChildren(so, {"on", "start_time", "end_time", "step_interval", "in_degrees", "use_model_force_set",
                           "activation_exponent", "use_muscle_physiology", "optimizer_convergence_criterion",
-                          "optimizer_max_iterations"});
+                          "optimizer_max_iterations", "kneesim_optimizer"});
   for (const xml::Node& c : so.children()) s.locations["StaticOptimization/" + c.name()] = c.where();
   s.so_on = so.childBool("on", true);
   if (!so.nameAttr().empty()) s.so_name = so.nameAttr();
@@ -62,6 +62,11 @@ void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   s.so.max_iterations = int(finiteChild(so, "optimizer_max_iterations", 100, "a positive count"));
   if (s.so.max_iterations < 1)
     so.child("optimizer_max_iterations").fail("expected a positive count, got " + so.childText("optimizer_max_iterations"));
+  // kneesim's own element: the optimum (exact, the default) or OpenSim's optimizer and its answers.
+  const std::string optimizer = so.childText("kneesim_optimizer", "exact");
+  if (optimizer != "exact" && optimizer != "opensim")
+    so.child("kneesim_optimizer").fail("expected exact or opensim, got '" + optimizer + "'");
+  s.so.opensim_optimizer = optimizer == "opensim";
 }
 
 void readJointReaction(const xml::Node& jr, const std::string& dir, AnalyzeSetup& s) {

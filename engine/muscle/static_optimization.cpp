@@ -3,9 +3,12 @@
 #include "muscle/static_optimization.hpp"
 
 #include <cmath>
+#include <mutex>
 
 #include "core/error.hpp"
+#include "identify/least_squares.hpp"
 #include "muscle/so_solver.hpp"
+#include "sim/interior_point.hpp"
 
 namespace kneesim::muscle {
 
@@ -42,8 +45,10 @@ std::unique_ptr<SoWorkspace> StaticOptimization::createWorkspace() const {
   ws->paths_ = paths_.createWorkspace();
   ws->solver_ = std::make_unique<SoSolver>(na, nc, options_.activation_exponent, options_.convergence, options_.max_iterations);
   ws->C_ = Eigen::MatrixXd::Zero(n, n);
-  ws->A_ = Eigen::MatrixXd::Zero(nc, na);
-  ws->d_ = ws->qddot_ = ws->tau_ = ws->g_ = Eigen::VectorXd::Zero(n);
+  ws->A_ = ws->A_acc_ = Eigen::MatrixXd::Zero(nc, na);
+  ws->mass_ = Eigen::MatrixXd::Zero(nc, nc);
+  ws->d_ = ws->qddot_ = ws->tau_ = ws->g_ = ws->tau0_ = ws->unit_qddot_ = Eigen::VectorXd::Zero(n);
+  ws->b_acc_ = Eigen::VectorXd::Zero(nc);
   ws->b_ = Eigen::VectorXd::Zero(nc);
   ws->fopt_ = ws->x_ = ws->force_ = ws->lower_ = ws->upper_ = Eigen::VectorXd::Zero(na);
   for (int j = 0; j < na; ++j) {
@@ -69,6 +74,7 @@ SoFrameStatus StaticOptimization::solveFrame(SoWorkspace& ws, double t, const Ei
   dynamics::IdWorkspace& idws = *ws.id_;
   id_->setState(idws, q, qdot);
   if (loads) loads->addBodyForces(id_->getSystem(), idws.getSimWorkspace(), t, idws.updAppliedForces());
+  if (options_.opensim_optimizer) calcReducedMassMatrix(ws);
   id_->calcGeneralizedForces(idws, ws.qddot_, ws.tau_);
   for (int r = 0; r < nc; ++r) ws.b_[r] = ws.C_.col(free_[r]).dot(ws.tau_);
 
@@ -94,7 +100,21 @@ SoFrameStatus StaticOptimization::solveFrame(SoWorkspace& ws, double t, const Ei
   if (!ws.has_previous_) ws.x_.setZero();
   ws.x_ = ws.x_.cwiseMax(ws.lower_).cwiseMin(ws.upper_);
   SoFrameStatus status;
-  status.converged = ws.solver_->solve(ws.A_, ws.b_, ws.lower_, ws.upper_, ws.x_, status.iterations);
+  if (options_.opensim_optimizer) {
+    // OpenSim's problem: the accelerations' equations (M_r^-1 A x = M_r^-1 b), solved by
+    // Simbody's optimizer from zero at every frame.
+    ws.mass_ldlt_.compute(ws.mass_);
+    ws.A_acc_ = ws.mass_ldlt_.solve(ws.A_);
+    ws.b_acc_ = ws.mass_ldlt_.solve(ws.b_);
+    ws.x_.setZero();
+    const sim::SimbodyOptimizerSettings settings{options_.convergence, options_.max_iterations};
+    std::lock_guard<std::mutex> lock(identify::getIpoptMutex());  // one Ipopt at a time
+    status.converged =
+        sim::minimizePowerSumWithSimbody(ws.A_acc_, ws.b_acc_, ws.lower_, ws.upper_, options_.activation_exponent,
+                                         settings, ws.x_, status.message);
+  } else {
+    status.converged = ws.solver_->solve(ws.A_, ws.b_, ws.lower_, ws.upper_, ws.x_, status.iterations);
+  }
   ws.has_previous_ = status.converged;
   ws.force_ = ws.x_.cwiseProduct(ws.fopt_);
   for (int r = 0; r < nc; ++r) {
@@ -105,6 +125,20 @@ SoFrameStatus StaticOptimization::solveFrame(SoWorkspace& ws, double t, const Ei
     }
   }
   return status;
+}
+
+void StaticOptimization::calcReducedMassMatrix(SoWorkspace& ws) const {
+  // Column k: the generalised forces a unit acceleration of free coordinate k (its coupled
+  // coordinates following) adds to those of the couplers' own accelerations d.
+  dynamics::IdWorkspace& idws = *ws.id_;
+  const int nc = int(free_.size());
+  id_->calcGeneralizedForces(idws, ws.d_, ws.tau0_);
+  for (int k = 0; k < nc; ++k) {
+    ws.unit_qddot_ = ws.C_.col(free_[k]) + ws.d_;
+    id_->calcGeneralizedForces(idws, ws.unit_qddot_, ws.tau_);
+    ws.tau_ -= ws.tau0_;
+    for (int r = 0; r < nc; ++r) ws.mass_(r, k) = ws.C_.col(free_[r]).dot(ws.tau_);
+  }
 }
 
 void StaticOptimization::addActuatorLoads(const SoWorkspace& ws, sim::SpatialColumns& F,

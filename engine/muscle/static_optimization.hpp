@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "dynamics/external_loads.hpp"
@@ -35,6 +36,11 @@ struct SoOptions {
   bool use_muscle_physiology = true;  ///< Muscle force from the force-length-velocity curves.
   double convergence = 1e-4;          ///< optimizer_convergence_criterion (Ipopt's tol).
   int max_iterations = 100;           ///< optimizer_max_iterations.
+  /// Solve each frame as OpenSim does (sim/interior_point.hpp: Simbody's interior-point optimizer
+  /// on the accelerations' equations, from zero, stopping at `convergence`), which reproduces
+  /// OpenSim's answers where its optimizer stops short of the optimum; false: the optimum itself
+  /// (the dedicated quadratic programme for exponent 2, else Ipopt to `convergence`). Allocates.
+  bool opensim_optimizer = false;
 };
 
 /// One optimised actuator, in the order OpenSim writes them (muscles, then coordinate actuators;
@@ -53,6 +59,7 @@ struct SoFrameStatus {
   /// Largest equation-of-motion residual |C^T (R F - tau)| (N·m or N) and the coordinate it is on.
   double max_violation = 0.0;
   int worst_coordinate = -1;
+  std::string message;  ///< The optimizer's, where it failed (opensim_optimizer).
 };
 
 class SoSolver;
@@ -80,6 +87,10 @@ class SoWorkspace {
   std::unique_ptr<SoSolver> solver_;
   Eigen::MatrixXd C_, A_;
   Eigen::VectorXd d_, qddot_, tau_, g_, b_, fopt_, x_, force_, lower_, upper_;
+  // SoOptions::opensim_optimizer: the free coordinates' mass matrix and the accelerations' equations.
+  Eigen::MatrixXd mass_, A_acc_;
+  Eigen::VectorXd tau0_, unit_qddot_, b_acc_;
+  Eigen::LDLT<Eigen::MatrixXd> mass_ldlt_;
   bool has_previous_ = false;
 };
 
@@ -112,6 +123,8 @@ class StaticOptimization {
   void addActuatorLoads(const SoWorkspace& ws, sim::SpatialColumns& F, Eigen::Ref<Eigen::VectorXd> mobility) const;
 
  private:
+  /// ws.mass_: C_f^T M C_f of the free coordinates at the frame's state, from inverse dynamics.
+  void calcReducedMassMatrix(SoWorkspace& ws) const;
   std::shared_ptr<const dynamics::InverseDynamics> id_;
   SoOptions options_;
   PathSet paths_;
