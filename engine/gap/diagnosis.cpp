@@ -96,8 +96,12 @@ identify::Trial makeTargetTrial(const GapTrial& g, const std::string& target) {
   remap("dmin", "dmin_" + side);
   remap("dS_dflexion", "dS_" + side + "_dflexion");
   remap("dS_dap", "dS_" + side + "_dap");
-  for (const auto& [name, v] : g.trial.channels)
+  for (const auto& [name, v] : g.trial.channels) {
     if (startsWith(name, "S@")) remap(name, "S_" + side + name.substr(1));
+    // A whole-knee channel <p>_total (knee_muscle_total: the musculoskeletal force) reads as the
+    // compartment's <p>_medial or <p>_lateral, and is dropped where the file has none.
+    if (endsWith(name, "_total")) remap(name, name.substr(0, name.size() - 5) + side);
+  }
   return t;
 }
 

@@ -52,7 +52,8 @@ struct DiagnosisOptions {
   identify::FitOptions fit;
   /// "total", "medial" and/or "lateral": the measured force each analysis explains. For a
   /// compartment the law reads that compartment's channels (S <- S_medial, dS_dt <- dS_medial_dt,
-  /// S@3mm <- S_medial@3mm, ...; channels without a compartment version are dropped).
+  /// S@3mm <- S_medial@3mm, knee_muscle_total <- knee_muscle_medial, any <p>_total <- <p>_medial;
+  /// channels without a compartment version are dropped).
   std::vector<std::string> targets{"total"};
   int screen_top = 4;      ///< Effects fitted fully at each selection step.
   int max_effects = 3;     ///< Most effects selected.

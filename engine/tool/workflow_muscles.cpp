@@ -228,6 +228,7 @@ void splitMuscleLoads(TrialMuscleLoads& loads, const std::vector<double>& time, 
   std::vector<std::vector<double>> at(6);
   for (int k = 0; k < 6; ++k) at[size_t(k)] = gap::interpolate(tt, cols[size_t(k)], time);
   const size_t n = time.size();
+  loads.split_time = time;
   loads.total.assign(n, kNaN);
   loads.medial.assign(n, kNaN);
   loads.lateral.assign(n, kNaN);
@@ -304,14 +305,25 @@ io::Storage makeGapLoadTable(const io::Storage& knee_loads, const TrialMuscleLoa
   io::Storage s = knee_loads;
   s.name = "knee net loads (inverse dynamics) and the musculoskeletal knee force";
   s.header.emplace_back("knee_muscle_total", "compressive force on the tibial component with muscle forces (N)");
-  std::vector<double> t(size_t(s.getNumRows())), total(loads.time.size());
+  s.header.emplace_back("knee_muscle_medial", "its medial compartment's share (N), split by the frontal-plane moment");
+  s.header.emplace_back("knee_muscle_lateral", "its lateral compartment's share (N)");
+  const Eigen::Index rows = s.getNumRows();
+  std::vector<double> t(static_cast<size_t>(rows)), total(loads.time.size());
   for (size_t r = 0; r < t.size(); ++r) t[r] = s.data(Eigen::Index(r), 0);
   for (size_t f = 0; f < total.size(); ++f) total[f] = -loads.force.row(Eigen::Index(f)).dot(loads.axes.superior.transpose());
-  // Held at the end values within half a frame (the two tables share their frames).
-  const std::vector<double> at = gap::interpolate(loads.time, total, t, 1e-3);
-  s.labels.push_back("knee_muscle_total");
-  s.data.conservativeResize(Eigen::NoChange, s.data.cols() + 1);
-  for (size_t r = 0; r < t.size(); ++r) s.data(Eigen::Index(r), s.data.cols() - 1) = at[r];
+  // The total is held at the end values within half a frame (the two tables share their frames).
+  // The compartments are split at the workflow's frames (where the contact centroids are): held
+  // at their end values within one of this table's frames, so that the gap diagnosis, which reads
+  // this table at the workflow's frames, finds both neighbours of every frame.
+  const double frame = rows > 1 ? (t.back() - t.front()) / double(rows - 1) : 0.0;
+  const std::vector<std::vector<double>> cols = {gap::interpolate(loads.time, total, t, 1e-3),
+                                                 gap::interpolate(loads.split_time, loads.medial, t, frame),
+                                                 gap::interpolate(loads.split_time, loads.lateral, t, frame)};
+  const Eigen::Index first = s.data.cols();
+  for (const char* name : {"knee_muscle_total", "knee_muscle_medial", "knee_muscle_lateral"}) s.labels.push_back(name);
+  s.data.conservativeResize(Eigen::NoChange, first + 3);
+  for (Eigen::Index k = 0; k < 3; ++k)
+    for (size_t r = 0; r < t.size(); ++r) s.data(Eigen::Index(r), first + k) = cols[size_t(k)][r];
   return s;
 }
 

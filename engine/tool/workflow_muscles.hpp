@@ -93,6 +93,7 @@ struct TrialMuscleLoads {
   dynamics::KneeAxes axes;
   /// At the workflow's frames (N): compressive total, medial, lateral.
   std::vector<double> total, medial, lateral;
+  std::vector<double> split_time;  ///< The workflow's frames of total, medial and lateral, s.
   int frames_without_contact_centroid = 0;  ///< Frames using a trial-mean centroid.
   std::vector<ChainReserve> reserves;
   int short_frames = 0;               ///< Frames where the actuators fall short of ID.
@@ -125,8 +126,10 @@ Plot makeMuscleLoadPlot(const TrialMuscleLoads& loads, const io::KneeForces& for
                         const std::vector<double>& x, const std::string& xlabel, const std::string& trial);
 
 /// The knee's net loads of inverse dynamics (@p knee_loads: time and knee_* columns, at the chain's
-/// frames) with the musculoskeletal compressive force beside them as knee_muscle_total: the
-/// channels a gap diagnosis testing the muscle_load effect reads (plugins/muscle_load).
+/// frames) with the musculoskeletal compressive force beside them as knee_muscle_total and its
+/// medial/lateral split (splitMuscleLoads) as knee_muscle_medial and knee_muscle_lateral: the
+/// channels a gap diagnosis testing the muscle_load effect reads (plugins/muscle_load; on a
+/// compartment target the diagnosis reads that compartment's column as knee_muscle_total).
 io::Storage makeGapLoadTable(const io::Storage& knee_loads, const TrialMuscleLoads& loads);
 
 /// summary.json's muscle_chain entry of a trial.

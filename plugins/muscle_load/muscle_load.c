@@ -5,7 +5,9 @@
  *                 F = F_base + gain * (knee_muscle_total - F_base)
  *
  * knee_muscle_total is the compressive force on the tibial component from static optimization and
- * the knee's joint reaction (the knee contact workflow's <MuscleChain>, docs/jw_muscle_chain.md):
+ * the knee's joint reaction (the knee contact workflow's <MuscleChain>, docs/jw_muscle_chain.md); on
+ * the medial and lateral targets the diagnosis hands over the chain's split of it under this name
+ * (knee_muscle_medial, knee_muscle_lateral of <trial>_knee_loads_muscles.sto; gap::makeTargetTrial):
  * gain 0 gives the baseline back, gain 1 replaces it by the muscle-driven estimate, a fitted gain
  * between says how far the measured force leans towards the muscles. A plugin of its own, not part
  * of gap_effects' catalogue: a gap setup that tests it loads it (share/gap/jw_gap_muscle.xml).

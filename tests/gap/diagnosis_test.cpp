@@ -322,6 +322,22 @@ TEST_F(Diagnosis, CompartmentTargetsReadTheirOwnChannels) {
   EXPECT_THAT(rep.targets[0].untestable, testing::Contains(HasSubstr("threshold: trial")));
 }
 
+// The musculoskeletal force (the muscle_load effect's channel) on a compartment target is that
+// compartment's share, not the whole knee's; a file without the split leaves the effect untestable there.
+TEST(DiagnosisTargets, WholeKneeChannelsReadAsTheCompartments) {
+  GapTrial g;
+  g.trial.channels["knee_muscle_total"] = {1200, 1300};
+  g.trial.channels["knee_muscle_medial"] = {900, 950};
+  g.trial.channels["knee_muscle_lateral"] = {300, 350};
+  g.trial.channels["knee_flexion_moment"] = {10, 20};
+  EXPECT_EQ(makeTargetTrial(g, "total").channels.at("knee_muscle_total"), (std::vector<double>{1200, 1300}));
+  EXPECT_EQ(makeTargetTrial(g, "medial").channels.at("knee_muscle_total"), (std::vector<double>{900, 950}));
+  EXPECT_EQ(makeTargetTrial(g, "lateral").channels.at("knee_muscle_total"), (std::vector<double>{300, 350}));
+  EXPECT_EQ(makeTargetTrial(g, "lateral").channels.at("knee_flexion_moment"), (std::vector<double>{10, 20}));
+  g.trial.channels.erase("knee_muscle_medial");
+  EXPECT_EQ(makeTargetTrial(g, "medial").channels.count("knee_muscle_total"), 0u);
+}
+
 TEST_F(Diagnosis, BadRequestsAreOneLineErrors) {
   KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
   auto trials = synthetic({}, 1);

@@ -20,25 +20,31 @@ namespace {
 namespace fs = std::filesystem;
 
 // Two compressive forces (medial 900 N at c_m, lateral 300 N at c_l, along -y) and a shear at
-// their mid-point, expressed as the reaction on the tibia about its origin: the split returns them.
-TEST(WorkflowMuscles, SplitRecoversTwoCompartmentForces) {
+// their mid-point, expressed as the reaction on the tibia about its origin at chain frames @p time,
+// and the contact series of @p frames frames with those centroids.
+TrialMuscleLoads twoCompartmentLoads(const std::vector<double>& time, int frames, contact::ContactSeries& s) {
   const Eigen::Vector3d cm(0.004, -0.002, 0.021), cl(-0.003, -0.001, -0.019);  // x posterior, y superior, z medial
   const Eigen::Vector3d fm(0, -900, 0), fl(0, -300, 0), shear(35, 0, -60), O = 0.5 * (cm + cl);
   TrialMuscleLoads k;
-  k.time = {0.0, 1.0};
-  k.force.resize(2, 3);
-  k.moment.resize(2, 3);
-  for (int r = 0; r < 2; ++r) {
+  k.time = time;
+  k.force.resize(Eigen::Index(time.size()), 3);
+  k.moment.resize(Eigen::Index(time.size()), 3);
+  for (Eigen::Index r = 0; r < k.force.rows(); ++r) {
     k.force.row(r) = (fm + fl + shear).transpose();
     k.moment.row(r) = (cm.cross(fm) + cl.cross(fl) + O.cross(shear)).transpose();
   }
-  contact::ContactSeries s;
-  s.frames.resize(2);
+  s.frames.resize(size_t(frames));
   for (contact::ContactFrame& f : s.frames) {
     f.S_medial = f.S_lateral = 1e-4;
     f.centroid_medial = cm;
     f.centroid_lateral = cl;
   }
+  return k;
+}
+
+TEST(WorkflowMuscles, SplitRecoversTwoCompartmentForces) {
+  contact::ContactSeries s;
+  TrialMuscleLoads k = twoCompartmentLoads({0.0, 1.0}, 2, s);
   s.frames[1].S_lateral = 0;  // no lateral contact: the trial's mean lateral centroid (the same here)
   splitMuscleLoads(k, {0.25, 0.75}, s);
   for (int i = 0; i < 2; ++i) {
@@ -47,6 +53,31 @@ TEST(WorkflowMuscles, SplitRecoversTwoCompartmentForces) {
     EXPECT_NEAR(k.lateral[size_t(i)], 300, 1e-9);
   }
   EXPECT_EQ(k.frames_without_contact_centroid, 1);
+}
+
+// The gap diagnosis's table (<trial>_knee_loads_muscles.sto) carries the split beside the total, at
+// the chain's frames, so that muscle_load on the medial and lateral targets uses the compartment's force.
+TEST(WorkflowMuscles, GapLoadTableCarriesTheCompartmentForces) {
+  contact::ContactSeries s;
+  TrialMuscleLoads k = twoCompartmentLoads({0.0, 0.1, 0.2, 0.3}, 3, s);
+  splitMuscleLoads(k, {0.05, 0.15, 0.25}, s);  // the workflow's frames lie between the chain's
+  io::Storage net;
+  net.labels = {"time", "knee_flexion_moment"};
+  net.data.resize(4, 2);
+  for (int r = 0; r < 4; ++r) net.data.row(r) << 0.1 * r, 10.0 * r;
+  const io::Storage g = makeGapLoadTable(net, k);
+  ASSERT_EQ(g.getNumRows(), 4);
+  const int total = g.findColumn("knee_muscle_total"), medial = g.findColumn("knee_muscle_medial"),
+            lateral = g.findColumn("knee_muscle_lateral");
+  ASSERT_GE(total, 0);
+  ASSERT_GE(medial, 0);
+  ASSERT_GE(lateral, 0);
+  EXPECT_EQ(g.findColumn("knee_flexion_moment"), 1);
+  for (int r = 0; r < 4; ++r) {  // the first and last rows hold the nearest split frame's values
+    EXPECT_NEAR(g.data(r, total), 1200, 1e-9);
+    EXPECT_NEAR(g.data(r, medial), 900, 1e-9) << r;
+    EXPECT_NEAR(g.data(r, lateral), 300, 1e-9) << r;
+  }
 }
 
 TEST(WorkflowMuscles, SetupErrorsAreOneLine) {
