@@ -312,13 +312,19 @@ io::Storage makeGapLoadTable(const io::Storage& knee_loads, const TrialMuscleLoa
   for (size_t r = 0; r < t.size(); ++r) t[r] = s.data(Eigen::Index(r), 0);
   for (size_t f = 0; f < total.size(); ++f) total[f] = -loads.force.row(Eigen::Index(f)).dot(loads.axes.superior.transpose());
   // The total is held at the end values within half a frame (the two tables share their frames).
-  // The compartments are split at the workflow's frames (where the contact centroids are): held
-  // at their end values within one of this table's frames, so that the gap diagnosis, which reads
-  // this table at the workflow's frames, finds both neighbours of every frame.
+  // The compartments are split at the workflow's frames where the reaction is known (where the
+  // contact centroids are): held at their end values within one of this table's frames, so that
+  // the gap diagnosis, which reads this table at the workflow's frames, finds both neighbours of
+  // every frame.
   const double frame = rows > 1 ? (t.back() - t.front()) / double(rows - 1) : 0.0;
-  const std::vector<std::vector<double>> cols = {gap::interpolate(loads.time, total, t, 1e-3),
-                                                 gap::interpolate(loads.split_time, loads.medial, t, frame),
-                                                 gap::interpolate(loads.split_time, loads.lateral, t, frame)};
+  auto split = [&](const std::vector<double>& v) {
+    std::vector<double> ts, vs;
+    for (size_t i = 0; i < v.size() && i < loads.split_time.size(); ++i)
+      if (std::isfinite(v[i])) ts.push_back(loads.split_time[i]), vs.push_back(v[i]);
+    return ts.empty() ? std::vector<double>(t.size(), kNaN) : gap::interpolate(ts, vs, t, frame);
+  };
+  const std::vector<std::vector<double>> cols = {gap::interpolate(loads.time, total, t, 1e-3), split(loads.medial),
+                                                 split(loads.lateral)};
   const Eigen::Index first = s.data.cols();
   for (const char* name : {"knee_muscle_total", "knee_muscle_medial", "knee_muscle_lateral"}) s.labels.push_back(name);
   s.data.conservativeResize(Eigen::NoChange, first + 3);

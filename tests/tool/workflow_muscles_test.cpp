@@ -60,7 +60,8 @@ TEST(WorkflowMuscles, SplitRecoversTwoCompartmentForces) {
 TEST(WorkflowMuscles, GapLoadTableCarriesTheCompartmentForces) {
   contact::ContactSeries s;
   TrialMuscleLoads k = twoCompartmentLoads({0.0, 0.1, 0.2, 0.3}, 3, s);
-  splitMuscleLoads(k, {0.05, 0.15, 0.25}, s);  // the workflow's frames lie between the chain's
+  splitMuscleLoads(k, {0.05, 0.15, 0.25, 0.3000001}, s);  // the workflow's frames lie between the chain's
+  ASSERT_TRUE(std::isnan(k.medial[3]));  // a frame beyond the chain's has no reaction to split
   io::Storage net;
   net.labels = {"time", "knee_flexion_moment"};
   net.data.resize(4, 2);
