@@ -74,6 +74,7 @@ TargetDiagnosis diagnoseTarget(Context& c, const std::vector<Effect>& catalogue,
   writeVerdict(c, current, d);
   d.series = makeSeries(c, base, current);
   d.shrinkage = shrinkage(c, base, current);
+  d.comparisons = compare(c, catalogue, base, target);
   return d;
 }
 
@@ -131,6 +132,9 @@ GapReport diagnose(const identify::ContactLaw& base, const std::vector<Effect>& 
   if (rep.interim_inputs)
     rep.notes.push_back("INTERIM INPUTS: some contact areas are the interim stand-in derived from the measured force "
                         "(files marked kneesim_interim=true); this is not a real-data result.");
+  for (const auto& name : o.compared_effects)
+    if (std::none_of(catalogue.begin(), catalogue.end(), [&](const Effect& e) { return e.getName() == name; }))
+      throw InputError(where, "gap diagnosis: compared_effects: expected an effect of the catalogue, got '" + name + "'");
   for (const auto& target : o.targets) {
     if (const std::string why = findTargetProblem(target); !why.empty())
       throw InputError(where, "gap diagnosis: target: " + why);

@@ -94,6 +94,13 @@ struct DiagnosisOptions {
   bool shrinkage = true;          ///< Run the leave-one-activity-out shrinkage.
   double max_lag = 0.1;           ///< s: range of the time-shift search.
   unsigned long long seed = 20150101;
+  /// Channels each taken as the force itself, an alternative baseline with nothing fitted (on a
+  /// compartment target its compartment's channel, e.g. knee_muscle_total: the musculoskeletal
+  /// estimate): their withheld error beside the baseline law's (TargetDiagnosis::comparisons).
+  std::vector<std::string> alternative_baselines;
+  /// Effects of the catalogue whose withheld error added to the baseline law is reported whether or
+  /// not the selection chooses them (e.g. muscle_load; TargetDiagnosis::comparisons).
+  std::vector<std::string> compared_effects;
 };
 
 /// Correlation of the held-out gap with a candidate signal.
@@ -267,6 +274,20 @@ struct ShrinkageRow {
   identify::Interval ci;          ///< Bootstrap over cycles (NaN with fewer than 2).
 };
 
+/// The baseline law's withheld error beside an alternative's (DiagnosisOptions::alternative_baselines
+/// and compared_effects), on withheld cycles (overall and per activity) and withheld activities.
+struct Comparison {
+  std::string name;     ///< The channel or the effect.
+  /// "alternative baseline" (the channel taken as the force, nothing fitted) or "baseline + effect"
+  /// (the effect added to the baseline law and fitted on the same training data as the law alone).
+  std::string kind;
+  std::string channel;  ///< Alternative baselines: the channel this target read.
+  /// rmse_base: the baseline law's withheld error; rmse_final: the alternative's; reduction and its
+  /// bootstrap interval over cycles as in the shrinkage rows.
+  std::vector<ShrinkageRow> rows;
+  std::string note;     ///< Why there are no rows (a missing channel, an effect that cannot be tested).
+};
+
 /// Per trial, the series behind the plots.
 struct TrialSeries {
   std::string trial, activity;
@@ -325,6 +346,7 @@ struct TargetDiagnosis {
   std::string final_law;
   identify::FitReport final_fit;
   std::vector<ShrinkageRow> shrinkage;
+  std::vector<Comparison> comparisons;  ///< One per alternative baseline, then per compared effect.
   std::vector<std::string> untestable;  ///< "effect: reason".
   /// Coefficients phi_1..phi_p of the prewhitening filter e_t - sum phi_k e_{t-k} estimated on the
   /// baseline's in-sample residuals less their mean over the cycle, up to 6 Hz (empty: none).

@@ -148,5 +148,10 @@ void writeVerdict(const Context& c, const Model& current, TargetDiagnosis& d);
 // Withheld errors of @p base and @p current: leaving one cycle out (overall and per phase), then
 // leaving one activity out.
 std::vector<ShrinkageRow> shrinkage(const Context& c, const Model& base, const Model& current);
+// The withheld errors of the options' alternative baselines and compared effects of @p catalogue
+// beside @p base's on @p target: leaving one cycle out (overall, per activity), then leaving one
+// activity out.
+std::vector<Comparison> compare(const Context& c, const std::vector<Effect>& catalogue, const Model& base,
+                                const std::string& target);
 
 }  // namespace kneesim::gap::detail

@@ -1,6 +1,7 @@
 // Shrinkage of the gap diagnosis: withheld RMSE of the baseline and of the selected model, leaving
 // one cycle out (overall and per phase) and leaving one activity out, with bootstrap intervals over
-// cycles.
+// cycles; and the same withheld errors of the alternatives the options name beside the baseline's
+// (an alternative baseline read from a channel, an effect added whether or not it was selected).
 
 #include <algorithm>
 #include <cmath>
@@ -89,27 +90,30 @@ void leaveOneCycleOut(const Context& c, const Model& base, const Model& current,
   }
 }
 
-// Forces of both models (base, current), fitted on the @p train units, on the trials of the @p test
-// units; false if a fit refuses the training units (e.g. a parameter they cannot determine).
-bool forcesFittedOn(const Context& c, const Model& base, const Model& current, const std::vector<int>& train,
-                    const std::vector<int>& test, std::map<int, Eigen::VectorXd> (&forces)[2]) {
-  for (int k = 0; k < 2; ++k) {
-    const Model& m = k == 0 ? base : current;
-    identify::FitReport fr;
-    try {
-      fr = identify::fit(m.law, restrict(c, train), fitOptionsFor(c, m.law, m.free, m.params, /*warm=*/true));
-    } catch (const InputError&) {
-      return false;  // e.g. a parameter the other activities cannot determine
-    }
-    const Eigen::VectorXd p = fr.getValues();
-    for (int u : test) {
-      const int t = c.units[u].trial;
-      if (forces[k].count(t)) continue;
-      const identify::LawInputs in(m.law, c.trials[t].channels, c.trials[t].time, c.trials[t].name);
-      m.law.calcForce(p, in, forces[k][t]);
-    }
+// Forces of @p m fitted on the @p train units, on the trials of the @p test units; false if the fit
+// refuses the training units (e.g. a parameter they cannot determine).
+bool forcesFittedOn(const Context& c, const Model& m, const std::vector<int>& train, const std::vector<int>& test,
+                    std::map<int, Eigen::VectorXd>& forces) {
+  identify::FitReport fr;
+  try {
+    fr = identify::fit(m.law, restrict(c, train), fitOptionsFor(c, m.law, m.free, m.params, /*warm=*/true));
+  } catch (const InputError&) {
+    return false;  // e.g. a parameter the other activities cannot determine
+  }
+  const Eigen::VectorXd p = fr.getValues();
+  for (int u : test) {
+    const int t = c.units[u].trial;
+    if (forces.count(t)) continue;
+    const identify::LawInputs in(m.law, c.trials[t].channels, c.trials[t].time, c.trials[t].name);
+    m.law.calcForce(p, in, forces[t]);
   }
   return true;
+}
+
+// The same for both models (base, current).
+bool forcesFittedOn(const Context& c, const Model& base, const Model& current, const std::vector<int>& train,
+                    const std::vector<int>& test, std::map<int, Eigen::VectorXd> (&forces)[2]) {
+  return forcesFittedOn(c, base, train, test, forces[0]) && forcesFittedOn(c, current, train, test, forces[1]);
 }
 
 // Leaving one activity out: both models fitted on the other activities predict it, overall and per
@@ -153,7 +157,127 @@ void leaveOneActivityOut(const Context& c, const Model& base, const Model& curre
   }
 }
 
+// The units of activity @p act (test) and the others (train).
+void splitByActivity(const Context& c, const std::string& act, std::vector<int>& train, std::vector<int>& test) {
+  for (size_t u = 0; u < c.units.size(); ++u) (c.units[u].activity == act ? test : train).push_back(static_cast<int>(u));
+}
+
+// Squared error of @p pred(trial, frame) over each unit of @p units.
+template <class Prediction>
+std::vector<double> unitSse(const Context& c, const std::vector<int>& units, const Prediction& pred) {
+  std::vector<double> sse;
+  for (int u : units) {
+    const int t = c.units[u].trial;
+    double a = 0;
+    for (int i : c.units[u].frames) {
+      const double e = c.trials[t].measured_force[i] - pred(t, i);
+      a += e * e;
+    }
+    sse.push_back(a);
+  }
+  return sse;
+}
+
+int framesOf(const Context& c, const std::vector<int>& units) {
+  int n = 0;
+  for (int u : units) n += static_cast<int>(c.units[u].frames.size());
+  return n;
+}
+
+// The rows of one comparison: @p alt_loco the alternative's withheld squared error per unit (all
+// cycles but each); @p alt_loao(train, test, sse) its squared errors on the test units, fitted on the
+// train units (false: it cannot be fitted there).
+template <class LeaveActivityOut>
+void comparisonRows(const Context& c, const Model& base, const std::vector<double>& alt_loco,
+                    const LeaveActivityOut& alt_loao, std::mt19937_64& rng, std::vector<ShrinkageRow>& rows) {
+  const auto acts = activitiesOf(c);
+  const std::vector<int> all = allUnits(c);
+  rows.push_back(shrinkRow(c, "leave one cycle out", "overall", "all other cycles", base.unit_sse, alt_loco,
+                           framesOf(c, all), rng));
+  if (acts.size() >= 2)
+    for (const auto& act : acts) {
+      std::vector<int> train, test;
+      splitByActivity(c, act, train, test);
+      std::vector<double> sb, sa;
+      for (int u : test) sb.push_back(base.unit_sse[u]), sa.push_back(alt_loco[u]);
+      rows.push_back(shrinkRow(c, "leave one cycle out", act, "all other cycles", sb, sa, framesOf(c, test), rng));
+    }
+  if (!c.o->shrinkage || acts.size() < 2) return;
+  for (const auto& act : acts) {
+    std::vector<int> train, test;
+    splitByActivity(c, act, train, test);
+    std::vector<std::string> others;
+    for (const auto& a : acts)
+      if (a != act) others.push_back(a);
+    std::map<int, Eigen::VectorXd> fb;
+    std::vector<double> sa;
+    if (!forcesFittedOn(c, base, train, test, fb) || !alt_loao(train, test, sa)) continue;
+    const auto sb = unitSse(c, test, [&](int t, int i) { return fb[t][i]; });
+    rows.push_back(shrinkRow(c, "leave one activity out", act, join(others, " + "), sb, sa, framesOf(c, test), rng));
+  }
+}
+
+// A channel taken as the force: nothing is fitted, so its withheld error is its error.
+Comparison compareChannel(const Context& c, const Model& base, const std::string& name, const std::string& target,
+                          std::mt19937_64& rng) {
+  Comparison cmp;
+  cmp.name = cmp.channel = name;
+  cmp.kind = "alternative baseline";
+  // makeTargetTrial reads a compartment's <p>_medial or <p>_lateral under the whole knee's name.
+  if (target != "total" && endsWith(name, "_total")) cmp.channel = name.substr(0, name.size() - 5) + target;
+  for (const auto& t : c.trials)
+    if (!t.channels.count(name)) {
+      cmp.note = "trial '" + t.name + "' has no channel '" + cmp.channel + "'";
+      return cmp;
+    }
+  auto channel = [&](int t, int i) { return c.trials[t].channels.at(name)[i]; };
+  const std::vector<double> loco = unitSse(c, allUnits(c), channel);
+  comparisonRows(
+      c, base, loco,
+      [&](const std::vector<int>&, const std::vector<int>& test, std::vector<double>& sse) {
+        sse = unitSse(c, test, channel);
+        return true;
+      },
+      rng, cmp.rows);
+  return cmp;
+}
+
+// The baseline plus @p e, fitted and cross-validated like a first-step candidate.
+Comparison compareEffect(const Context& c, const Model& base, const Effect& e, std::mt19937_64& rng) {
+  Comparison cmp;
+  cmp.name = e.getName();
+  cmp.kind = "baseline + effect";
+  if (std::string why; !testable(c, e, why)) {
+    cmp.note = why;
+    return cmp;
+  }
+  Model m(*c.base);
+  const CandidateFit cf = evaluate(c, base, e, 1, 1, 1, m);
+  if (!cf.converged) cmp.note = join(cf.notes, "; ");
+  comparisonRows(
+      c, base, m.unit_sse,
+      [&](const std::vector<int>& train, const std::vector<int>& test, std::vector<double>& sse) {
+        std::map<int, Eigen::VectorXd> f;
+        if (!forcesFittedOn(c, m, train, test, f)) return false;
+        sse = unitSse(c, test, [&](int t, int i) { return f[t][i]; });
+        return true;
+      },
+      rng, cmp.rows);
+  return cmp;
+}
+
 }  // namespace
+
+std::vector<Comparison> compare(const Context& c, const std::vector<Effect>& catalogue, const Model& base,
+                                const std::string& target) {
+  std::vector<Comparison> out;
+  std::mt19937_64 rng(c.o->seed + 1);
+  for (const auto& name : c.o->alternative_baselines) out.push_back(compareChannel(c, base, name, target, rng));
+  for (const auto& name : c.o->compared_effects)
+    for (const Effect& e : catalogue)
+      if (e.getName() == name) out.push_back(compareEffect(c, base, e, rng));
+  return out;
+}
 
 std::vector<ShrinkageRow> shrinkage(const Context& c, const Model& base, const Model& current) {
   std::vector<ShrinkageRow> rows;

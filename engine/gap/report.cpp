@@ -231,13 +231,21 @@ void writeRemainingJson(const TargetDiagnosis& d, json& t) {
                               {"model_agnostic_check", agnosticJson(d.structure.agnostic)},
                               {"cycle_heterogeneity", heterogeneityJson(d.structure.cycle_heterogeneity)},
                               {"recording_wander", wanderJson(d.structure.recording_wander)}};
-  json sh = json::array();
-  for (const auto& s : d.shrinkage)
-    sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
-                  {"cycles", s.n_cycles}, {"rmse_baseline_N", jsonNumber(s.rmse_base)}, {"rmse_final_N", jsonNumber(s.rmse_final)},
-                  {"rmse_baseline_BW", jsonNumber(s.rmse_base_bw)}, {"rmse_final_BW", jsonNumber(s.rmse_final_bw)},
-                  {"reduction", jsonNumber(s.reduction)}, {"reduction_ci", interval(s.ci)}});
-  t["shrinkage"] = sh;
+  auto rows = [](const std::vector<ShrinkageRow>& v, const char* final_key, const char* final_bw_key) {
+    json sh = json::array();
+    for (const auto& s : v)
+      sh.push_back({{"scheme", s.scheme}, {"scope", s.scope}, {"train", s.train}, {"frames", s.n_frames},
+                    {"cycles", s.n_cycles}, {"rmse_baseline_N", jsonNumber(s.rmse_base)}, {final_key, jsonNumber(s.rmse_final)},
+                    {"rmse_baseline_BW", jsonNumber(s.rmse_base_bw)}, {final_bw_key, jsonNumber(s.rmse_final_bw)},
+                    {"reduction", jsonNumber(s.reduction)}, {"reduction_ci", interval(s.ci)}});
+    return sh;
+  };
+  t["shrinkage"] = rows(d.shrinkage, "rmse_final_N", "rmse_final_BW");
+  json cmp = json::array();
+  for (const auto& c : d.comparisons)
+    cmp.push_back({{"name", c.name}, {"kind", c.kind}, {"channel", c.channel}, {"note", c.note},
+                   {"rows", rows(c.rows, "rmse_alternative_N", "rmse_alternative_BW")}});
+  t["comparisons"] = cmp;
 }
 
 }  // namespace
@@ -445,6 +453,27 @@ void writeWhichMarkdown(std::ostringstream& s, const TargetDiagnosis& d) {
   }
 }
 
+// The alternative baselines and compared effects beside the baseline law, on withheld data.
+void writeComparisons(std::ostringstream& s, const TargetDiagnosis& d) {
+  if (d.comparisons.empty()) return;
+  s << "### Beside other estimates\n\n"
+       "The baseline law's withheld error beside an alternative baseline (a channel taken as the force, nothing "
+       "fitted) and beside the law with an effect added, whether or not the selection chose it.\n\n"
+       "| alternative | scheme | withheld | trained on | cycles | baseline RMSE | alternative RMSE | reduction [95 % CI] "
+       "|\n|---|---|---|---|---:|---:|---:|---|\n";
+  for (const auto& c : d.comparisons) {
+    const std::string who = c.kind == "alternative baseline" ? "`" + c.channel + "` (alternative baseline)"
+                                                            : "baseline + `" + c.name + "`";
+    if (c.rows.empty()) s << "| " << who << " | | | | | | | " << c.note << " |\n";
+    for (const auto& x : c.rows)
+      s << "| " << who << " | " << x.scheme << " | " << x.scope << " | " << x.train << " | " << x.n_cycles << " | "
+        << fixed(x.rmse_base, 1) << " N (" << fixed(x.rmse_base_bw, 2) << " BW) | " << fixed(x.rmse_final, 1) << " N ("
+        << fixed(x.rmse_final_bw, 2) << " BW) | " << pct(x.reduction) << " [" << pct(x.ci.lower) << ", "
+        << pct(x.ci.upper) << "] |\n";
+  }
+  s << "\n";
+}
+
 }  // namespace
 
 std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& plots, const Anchors& a) {
@@ -489,6 +518,7 @@ std::string formatMarkdown(const GapReport& r, const std::vector<std::string>& p
         << fixed(x.rmse_final_bw, 2) << " BW) | " << pct(x.reduction) << " [" << pct(x.ci.lower) << ", "
         << pct(x.ci.upper) << "] |\n";
     s << "\n";
+    writeComparisons(s, d);
   }
   return s.str();
 }

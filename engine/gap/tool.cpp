@@ -96,7 +96,7 @@ GapSetup readGapSetup(const std::string& path) {
       "results_directory", "plugins",     "law",          "free_parameters", "assumed_values", "parameter_values",
       "effects",           "targets",     "body_mass",    "cv_folds",        "screen_top",     "max_effects",
       "alpha",             "structure_alpha", "min_relative_improvement", "confidence_level", "bootstrap_samples",
-      "prewhiten_order",
+      "prewhiten_order",   "alternative_baselines", "compared_effects",
       "plots",             "emg_flexors", "emg_extensors", "trials", "workflow_results"};
   for (const xml::Node& c : tool.children())
     if (!known.count(c.name()))
@@ -122,6 +122,8 @@ GapSetup readGapSetup(const std::string& path) {
     for (const auto& target : o.targets)
       if (const std::string why = findTargetProblem(target); !why.empty()) t.fail(why);
   }
+  if (xml::Node a = tool.child("alternative_baselines")) o.alternative_baselines = a.toWords();
+  if (xml::Node c = tool.child("compared_effects")) o.compared_effects = c.toWords();
   o.fit.body_mass = tool.childDouble("body_mass", 0.0);
   if (!(o.fit.body_mass >= 0)) tool.child("body_mass").fail("expected a mass >= 0 kg");
   auto integer = [&](const char* tag, int fallback, int lo) {

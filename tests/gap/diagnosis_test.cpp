@@ -100,6 +100,54 @@ TEST_F(Diagnosis, TimeDelayIsNamedLocatedAndRemoved) {
   EXPECT_GT(d.shrinkage[0].rmse_base, 130);
 }
 
+// The comparisons beside the baseline: a channel taken as the force (the measured force plus 50 N:
+// its withheld RMSE is 50 N in every row, nothing being fitted) and an effect added whether or not
+// selected (its withheld error on withheld cycles is its first-step candidate's, and on the withheld
+// activity it shrinks the gap as the injected delay does).
+TEST_F(Diagnosis, ComparisonsGiveTheAlternativesWithheldErrors) {
+  KNEESIM_REQUIRE_DATA("kgc4-jw/markers/jw_stairupf1.c3d");
+  auto trials = synthetic({{"time_delay", {{"delay", 0.14}}}}, 1);
+  for (GapTrial& g : trials) {
+    std::vector<double>& v = g.trial.channels["offset_force_total"];
+    for (double f : g.trial.measured_force) v.push_back(f + 50);
+  }
+  DiagnosisOptions o = options();
+  o.where = false;
+  o.max_effects = 1;
+  o.alternative_baselines = {"offset_force_total", "missing_total"};
+  o.compared_effects = {"time_delay", "rate"};
+  const GapReport rep = diagnose(hertz(), catalogue, trials, o);
+  const TargetDiagnosis& d = rep.targets[0];
+  ASSERT_EQ(d.comparisons.size(), 4u);
+  const Comparison &alt = d.comparisons[0], &missing = d.comparisons[1], &delay = d.comparisons[2];
+  EXPECT_EQ(alt.kind, "alternative baseline");
+  // Leave one cycle out overall and per activity, then each activity left out.
+  ASSERT_EQ(alt.rows.size(), 5u);
+  for (const ShrinkageRow& r : alt.rows) EXPECT_NEAR(r.rmse_final, 50.0, 1e-9) << r.scheme << " " << r.scope;
+  EXPECT_NEAR(alt.rows[0].rmse_base, d.baseline_rmse_heldout, 1e-9);
+  EXPECT_EQ(alt.rows[3].scheme, "leave one activity out");
+  EXPECT_TRUE(missing.rows.empty());
+  EXPECT_THAT(missing.note, HasSubstr("no channel 'missing_total'"));
+  EXPECT_EQ(delay.kind, "baseline + effect");
+  ASSERT_EQ(delay.rows.size(), 5u);
+  const auto cand = std::find_if(d.candidates.begin(), d.candidates.end(),
+                                 [](const CandidateFit& c) { return c.effect == "time_delay" && c.step == 1; });
+  ASSERT_NE(cand, d.candidates.end());
+  EXPECT_NEAR(delay.rows[0].rmse_final, cand->rmse_heldout, 1e-6 * cand->rmse_heldout);
+  for (size_t k = 3; k < 5; ++k) EXPECT_GT(delay.rows[k].reduction, 0.1) << delay.rows[k].scope;
+  // The same comparisons on the medial target read the channel's compartment version.
+  o.targets = {"medial"};
+  o.compared_effects.clear();
+  o.alternative_baselines = {"offset_force_total"};
+  const GapReport med = diagnose(hertz(), catalogue, trials, o);
+  ASSERT_EQ(med.targets[0].comparisons.size(), 1u);
+  EXPECT_EQ(med.targets[0].comparisons[0].channel, "offset_force_medial");
+  EXPECT_TRUE(med.targets[0].comparisons[0].rows.empty());
+  o.compared_effects = {"no_such_effect"};
+  EXPECT_THAT(inputErrorOf([&] { diagnose(hertz(), catalogue, trials, o); }),
+              HasSubstr("compared_effects: expected an effect of the catalogue, got 'no_such_effect'"));
+}
+
 // Nothing injected: the baseline is preferred, the phases' gaps lie within the repeatability band,
 // and the best monotone map of S (isotonic regression) fits at least as well as Hertz in sample,
 // since Hertz is one monotone map of S.
