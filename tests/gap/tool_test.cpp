@@ -36,6 +36,8 @@ TEST(GapTool, ReadsTheSetupWithPathsRelativeToIt) {
   <body_mass>66.7</body_mass>
   <cv_folds>5</cv_folds>
   <alpha>0.01</alpha>
+  <alternative_baselines>knee_muscle_total</alternative_baselines>
+  <compared_effects>rate</compared_effects>
   <trials>
     <Trial name="walk" activity="gait">
       <knee_forces>data/walk.csv</knee_forces>
@@ -54,6 +56,8 @@ TEST(GapTool, ReadsTheSetupWithPathsRelativeToIt) {
   EXPECT_EQ(s.options.fit.assumed_values.at("nu"), 0.45);
   EXPECT_EQ(s.options.cv_folds, 5);
   EXPECT_EQ(s.options.alpha, 0.01);
+  EXPECT_EQ(s.options.alternative_baselines, std::vector<std::string>{"knee_muscle_total"});
+  EXPECT_EQ(s.options.compared_effects, std::vector<std::string>{"rate"});
   ASSERT_EQ(s.trials.size(), 1u);
   EXPECT_EQ(s.trials[0].knee_forces, dir + "/data/walk.csv");
   EXPECT_EQ(s.trials[0].time_range.begin, 1.0);
