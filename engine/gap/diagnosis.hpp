@@ -236,7 +236,7 @@ struct ConfusablePair {
 ///  - the noise floor (NoiseFloor): the withheld error significantly above the scatter of matched
 ///    frames of other cycles;
 ///  - cycle-to-cycle heterogeneity (CycleHeterogeneity): the offsets and gains of a cycle's thirds;
-///  - a slow wander within a recording (RecordingWander): the offsets of thirds of cycles near in time.
+///  - an offset or slow wander within a recording (RecordingWander): quarter cycles against their neighbours.
 /// Structure remains when the mean gap, the model-agnostic check, the cycles or the wander say so. The noise floor is
 /// an estimate (matching imperfect in both directions): a withheld error above it, with no test finding
 /// what carries the excess, makes the verdict "undecided" (nothing selected) or "partly explained", never

@@ -139,10 +139,10 @@ std::string describeRemaining(const StructureTest& st) {
          " N).";
   const RecordingWander& w = st.recording_wander;
   if (w.run)
-    s += std::string(" Within a recording: ") +
-         (w.significant ? "the offset wanders over time" : "no wander over time") +
-         " (a piecewise-linear trend against the quarter cycles' scatter, p = " + fmt(w.p_value, 3) + "; " +
-         fmt(w.wander_sd, 3) + " N RMS).";
+    s += std::string(" Over a recording's time: ") +
+         (w.significant ? "the residual moves slowly (an offset or a wander)" : "no slow movement") +
+         " (quarter cycles against their neighbours' differences, p = " + fmt(w.p_value, 3) + "; " +
+         fmt(w.wander_sd, 3) + " N RMS beyond the noise).";
   return s;
 }
 
@@ -191,7 +191,7 @@ StructureTest structureTest(const Context& c, const Model& m) {
   if (std::isfinite(st.p_value) && st.p_value < alpha) st.evidence.push_back("mean gap over the cycle");
   if (st.agnostic.significant) st.evidence.push_back("model-agnostic check");
   if (st.cycle_heterogeneity.significant) st.evidence.push_back("cycle-to-cycle offset or gain");
-  if (st.recording_wander.significant) st.evidence.push_back("a wander within a recording");
+  if (st.recording_wander.significant) st.evidence.push_back("an offset or wander within a recording");
   st.significant = !st.evidence.empty();
   return st;
 }

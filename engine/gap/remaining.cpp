@@ -466,20 +466,21 @@ CycleHeterogeneity testCycleHeterogeneity(const RemainingData& d, const Remainin
 
 namespace {
 
-// Slots of a cycle for the wander test: quarters by phase, their outer fifths dropped (the used parts of
-// neighbouring quarters of a 1.1 s gait cycle are 0.11 s -- two correlation times of the smooth noise --
-// apart, so their means' noise correlates by about 0.02).
+// Slots of a cycle for the wander test: quarters by phase, their outer quarters dropped (the used parts of
+// neighbouring quarters of a 1.1 s gait cycle are 0.14 s -- nearly three correlation times of the smooth
+// noise -- apart, so their means' noise correlates by about 0.03).
 constexpr int kWanderSlots = 4;
+// Draws of the Monte Carlo null of the wander test.
+constexpr int kWanderDraws = 2000;
 
-// One recording's cells (cycle, quarter): the mean in-sample residual, the quarter, the mean time, and the
-// middle of each cycle (the knots of the trend).
+// One recording's cells (cycle, quarter) in time order: their mean in-sample residuals; and its cycles.
 struct WanderCells {
-  std::vector<int> slot;
-  std::vector<double> y, time, knots;
+  std::vector<double> y;
+  int cycles = 0;
 };
 
 // Per recording, the cells that hold at least a fifth of the recording's median frames per cell (a cycle
-// cut by the recording's edge keeps its whole quarters).
+// cut by the recording's edge keeps its whole quarters), ordered by their mean time.
 std::vector<WanderCells> wanderCells(const RemainingData& d) {
   const int n_units = countUnits(d);
   struct Sums {
@@ -497,7 +498,7 @@ std::vector<WanderCells> wanderCells(const RemainingData& d) {
       if (!std::isfinite(ph) || !std::isfinite(r)) continue;
       const int k = std::clamp(static_cast<int>(ph * kWanderSlots), 0, kWanderSlots - 1);
       const double x = ph * kWanderSlots - k;
-      if (x < 0.2 || x > 0.8) continue;
+      if (x < 0.25 || x > 0.75) continue;  // the middle half of the quarter
       sums[u][k].r += r, sums[u][k].t += d.trials[t]->time[i], ++sums[u][k].n;
     }
   std::vector<WanderCells> out(d.trials.size());
@@ -510,93 +511,88 @@ std::vector<WanderCells> wanderCells(const RemainingData& d) {
     if (counts.empty()) continue;
     std::sort(counts.begin(), counts.end());
     const int min_frames = std::max(5, counts[counts.size() / 2] / 5);
-    WanderCells& c = out[t];
+    std::vector<std::pair<double, double>> cells;  // (mean time, mean residual)
     for (int u = 0; u < n_units; ++u) {
       if (trial_of[u] != static_cast<int>(t)) continue;
-      double tc = 0;
-      int nc = 0;
+      bool any = false;
       for (int k = 0; k < kWanderSlots; ++k)
         if (sums[u][k].n >= min_frames) {
-          c.slot.push_back(k);
-          c.y.push_back(sums[u][k].r / sums[u][k].n);
-          c.time.push_back(sums[u][k].t / sums[u][k].n);
-          tc += c.time.back(), ++nc;
+          cells.emplace_back(sums[u][k].t / sums[u][k].n, sums[u][k].r / sums[u][k].n);
+          any = true;
         }
-      if (nc > 0) c.knots.push_back(tc / nc);
+      out[t].cycles += any;
     }
-    std::sort(c.knots.begin(), c.knots.end());
+    std::sort(cells.begin(), cells.end());
+    for (const auto& [time, y] : cells) out[t].y.push_back(y);
   }
   return out;
 }
 
-// Piecewise-linear hat function j of the knots at t (flat beyond the end knots).
-double hat(const std::vector<double>& knots, int j, double t) {
-  const int m = static_cast<int>(knots.size());
-  if (t <= knots[j]) return j == 0 ? 1.0 : std::max(0.0, (t - knots[j - 1]) / (knots[j] - knots[j - 1]));
-  return j + 1 == m ? 1.0 : std::max(0.0, (knots[j + 1] - t) / (knots[j + 1] - knots[j]));
+// Half the mean squared difference of neighbouring cells: a cell's noise variance, free of what moves
+// slowly from one cell to the next (the recording's offset, a wander, a smooth mean curve).
+double successiveVariance(const double* y, int n) {
+  double s = 0;
+  for (int k = 1; k < n; ++k) s += (y[k] - y[k - 1]) * (y[k] - y[k - 1]);
+  return s / (2.0 * (n - 1));
 }
 
-// Sums of squared residuals of one recording's cells about the quarters (the mean curve), and about the
-// quarters plus the trend (hat functions at the cycles' middles; their sum is one, so the last is
-// left out: the quarters carry the constant); with the two models' ranks.
-struct WanderFit {
-  double sse_curve = 0, sse_trend = 0;
-  int rank_curve = 0, rank_trend = 0;
-};
-
-WanderFit fitWander(const WanderCells& c) {
-  const int n = static_cast<int>(c.y.size()), m = static_cast<int>(c.knots.size());
-  Eigen::MatrixXd x0 = Eigen::MatrixXd::Zero(n, kWanderSlots), x1(n, kWanderSlots + m - 1);
-  for (int i = 0; i < n; ++i) {
-    x0(i, c.slot[i]) = 1;
-    x1.row(i).head(kWanderSlots) = x0.row(i);
-    for (int j = 0; j + 1 < m; ++j) x1(i, kWanderSlots + j) = hat(c.knots, j, c.time[i]);
+// The statistic over recordings: sum of n ln(mean square / successive variance). Each recording's term
+// is free of its noise level, so recordings of different noise combine.
+double slowStatistic(const std::vector<std::vector<double>>& ys) {
+  double s = 0;
+  for (const auto& y : ys) {
+    const int n = static_cast<int>(y.size());
+    double ms = 0;
+    for (double v : y) ms += v * v / n;
+    const double sv = successiveVariance(y.data(), n);
+    if (ms > 0 && sv > 0) s += n * std::log(ms / sv);
   }
-  const Eigen::Map<const Eigen::VectorXd> y(c.y.data(), n);
-  // Complete orthogonal decompositions: least squares where a quarter has no cell (a rank-deficient x0).
-  const auto qr0 = x0.completeOrthogonalDecomposition(), qr1 = x1.completeOrthogonalDecomposition();
-  WanderFit f;
-  f.sse_curve = (y - x0 * qr0.solve(y)).squaredNorm();
-  f.sse_trend = (y - x1 * qr1.solve(y)).squaredNorm();
-  f.rank_curve = static_cast<int>(qr0.rank());
-  f.rank_trend = static_cast<int>(qr1.rank());
-  return f;
+  return s;
 }
 
 }  // namespace
 
 RecordingWander testRecordingWander(const RemainingData& d, const RemainingOptions& o) {
   RecordingWander w;
-  double ss_trend = 0, ss_error = 0, df_trend = 0, df_error = 0, n_cells = 0;
-  for (const WanderCells& c : wanderCells(d)) {
-    const int n = static_cast<int>(c.y.size()), m = static_cast<int>(c.knots.size());
-    if (m < 2) continue;
-    const WanderFit f = fitWander(c);
-    if (f.rank_trend <= f.rank_curve || n - f.rank_trend < 1) continue;
-    ss_trend += std::max(0.0, f.sse_curve - f.sse_trend);
-    ss_error += f.sse_trend;
-    df_trend += f.rank_trend - f.rank_curve;
-    df_error += n - f.rank_trend;
-    n_cells += n;
-    w.units += m;
+  std::vector<std::vector<double>> ys;
+  double excess = 0;
+  for (WanderCells& c : wanderCells(d)) {
+    const int n = static_cast<int>(c.y.size());
+    if (n < 3) continue;
+    const double sv = successiveVariance(c.y.data(), n);
+    for (double v : c.y) excess += v * v - sv;
+    w.units += c.cycles;
+    w.cells += n;
     ++w.recordings;
+    ys.push_back(std::move(c.y));
   }
-  if (w.recordings == 0 || !(ss_error > 0)) {
-    w.note = "needs a recording with at least 2 cycles and more quarters than cycles";
+  if (w.recordings == 0) {
+    w.note = "needs a recording with at least 3 quarter cycles";
     return w;
   }
-  const double ms_error = ss_error / df_error;
-  w.statistic = (ss_trend / df_trend) / ms_error;
-  w.dof_trend = df_trend;
-  w.dof_error = df_error;
-  w.p_value = fisherSurvival(w.statistic, df_trend, df_error);
+  w.statistic = slowStatistic(ys);
+  // The null: every cell independent noise of its recording's level (the statistic does not depend on
+  // the level), drawn; the draws are fixed so that a diagnosis is reproducible.
+  std::mt19937_64 rng(20150101);
+  std::normal_distribution<double> z(0, 1);
+  std::vector<std::vector<double>> draw(ys.size());
+  int ge = 1;
+  for (int r = 0; r < kWanderDraws; ++r) {
+    for (size_t k = 0; k < ys.size(); ++k) {
+      draw[k].resize(ys[k].size());
+      for (double& v : draw[k]) v = z(rng);
+    }
+    ge += slowStatistic(draw) >= w.statistic;
+  }
+  w.draws = kWanderDraws;
+  w.p_value = double(ge) / (kWanderDraws + 1);
   w.significant = w.p_value < o.alpha;
-  w.wander_sd = std::sqrt(std::max(0.0, (ss_trend - df_trend * ms_error) / n_cells));
+  w.wander_sd = std::sqrt(std::max(0.0, excess / w.cells));
   w.run = true;
   std::ostringstream note;
   note.precision(3);
-  note << "F = " << w.statistic << " on " << df_trend << " and " << df_error << " degrees of freedom: "
-       << n_cells << " quarters of " << w.units << " cycles in " << w.recordings << " recordings";
+  note << "statistic " << w.statistic << " over " << w.cells << " quarters of " << w.units << " cycles in "
+       << w.recordings << " recordings, against " << kWanderDraws << " draws of independent quarters";
   w.note = note.str();
   return w;
 }

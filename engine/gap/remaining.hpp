@@ -13,8 +13,9 @@
 //    withheld error itself, with intervals over cycles;
 //  - cycle-to-cycle heterogeneity: whether the residual's offset and gain differ between cycles of an
 //    activity (the thirds of a cycle agree beyond chance);
-//  - a wander within a recording: whether the residual's offset moves over the recording's time (cycle
-//    to cycle, or within long cycles) more than the uncertainty of a quarter cycle's mean allows.
+//  - a wander within a recording: whether the quarter cycles' mean residuals agree with their neighbours
+//    in time (an offset of the recording, a wander from cycle to cycle or within long cycles) more than
+//    their successive differences allow.
 
 #include <string>
 #include <vector>
@@ -98,25 +99,26 @@ struct CycleHeterogeneity {
   double gain_sd = 0, offset_sd = 0;
 };
 
-/// Whether the residual wanders over a recording's time (a slow drift of the load cells' zero, a subject's
-/// loading changing over a trial, a gain per cycle): each quarter of a cycle (by phase, its outer fifths
-/// dropped so that neighbouring quarters' noise is independent; a quarter cut by the recording's edge is
-/// kept if it holds a fifth of the recording's median frames) gets its mean in-sample residual and time.
-/// Per recording, these are regressed on the quarters (the recording's mean curve: a model error common to
-/// its cycles, or an offset of the whole recording, which the mean-gap test judges) with and without a
-/// piecewise-linear function of time with a knot at each cycle's middle, and the F test of that function
-/// (pooled over recordings) compares what it takes up with the quarters' own scatter about the fit: the
-/// cycles' offsets and the trend within and between them against the uncertainty of a quarter's mean, like
-/// with like, with no model of the noise beyond the independence of the quarters.
+/// Whether the residual moves slowly over a recording's time (a slow drift of the load cells' zero, a
+/// subject's loading changing over a trial, the recording's own offset, a gain per cycle): each quarter of
+/// a cycle (by phase, its middle half, so that neighbouring quarters' noise is nearly independent; a
+/// quarter cut by the recording's edge is kept if it holds a fifth of the recording's median frames) gets
+/// its mean in-sample residual. Per recording, in time order, their mean square is compared with half the
+/// mean squared difference of neighbouring quarters (von Neumann's successive differences: the quarters'
+/// noise variance, free of whatever moves slowly from one quarter to the next); the statistic
+/// sum n ln(mean square / successive variance) over recordings is referred to draws of independent
+/// quarters, which it does not depend on the noise level of (recordings of different noise combine).
+/// Unlike a test against the cycles' scatter, a wander does not inflate its own yardstick.
 struct RecordingWander {
   bool run = false;
   std::string note;
-  int recordings = 0, units = 0;  ///< Recordings with at least two cycles, and their cycles.
-  double statistic = 0;           ///< F.
-  double dof_trend = 0, dof_error = 0;
+  int recordings = 0, units = 0;  ///< Recordings with at least 3 quarters, and their cycles.
+  int cells = 0;                  ///< Quarters used.
+  double statistic = 0;
+  int draws = 0;                  ///< Draws of the null.
   double p_value = 1;
   bool significant = false;
-  /// RMS of the fitted wander over the quarters beyond what the noise gives it, N.
+  /// RMS of the quarters' means beyond their successive-difference noise, N.
   double wander_sd = 0;
 };
 

@@ -118,8 +118,8 @@ json heterogeneityJson(const CycleHeterogeneity& h) {
 
 json wanderJson(const RecordingWander& w) {
   return {{"run", w.run},         {"note", w.note},           {"recordings", w.recordings},
-          {"cycles", w.units},    {"statistic", jsonNumber(w.statistic)}, {"dof_trend", jsonNumber(w.dof_trend)},
-          {"dof_error", jsonNumber(w.dof_error)}, {"p_value", jsonNumber(w.p_value)},
+          {"cycles", w.units},    {"statistic", jsonNumber(w.statistic)}, {"quarters", w.cells},
+          {"draws", w.draws}, {"p_value", jsonNumber(w.p_value)},
           {"significant", w.significant}, {"wander_sd_N", jsonNumber(w.wander_sd)}};
 }
 
@@ -347,7 +347,7 @@ void writeRemaining(std::ostringstream& s, const TargetDiagnosis& d) {
   else
     s << "not run: " << h.note << " |\n";
   const RecordingWander& w = st.recording_wander;
-  s << "| wander within a recording | ";
+  s << "| offset or wander within a recording | ";
   if (w.run)
     s << "p = " << fmt(w.p_value, 3) << (w.significant ? " (**significant**)" : "") << "; " << fixed(w.wander_sd, 0)
       << " N (" << w.note << ") |\n";

@@ -50,7 +50,11 @@ TEST_F(Diagnosis, TimeDelayIsNamedLocatedAndRemoved) {
   const TargetDiagnosis& d = rep.targets[0];
   std::printf("[ info     ] %s\n", d.verdict_text.c_str());
   EXPECT_FALSE(rep.interim_inputs);
-  EXPECT_EQ(d.verdict, "time_delay");
+  // Named: explained, or partly explained when a structure test fires at its level. On this seed the
+  // offset-or-wander test of 2026-11-28 gives p = 0.0085 against its 0.01 (46.9 N RMS beyond the noise of
+  // the quarter cycles): "partly explained by time_delay"; over the blind suite's 20 seeds time_delay is
+  // named in all.
+  EXPECT_THAT(d.verdict, ::testing::AnyOf("time_delay", "partly explained by time_delay"));
   ASSERT_EQ(d.selected, std::vector<std::string>{"time_delay"});
   // The screening ranks it among the effects fitted fully (rate, nearly collinear with it on these
   // inputs, may rank higher; the full fits tell them apart).

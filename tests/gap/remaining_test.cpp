@@ -16,7 +16,7 @@ struct World {
   RemainingData data;
 };
 
-enum class Structure { none, direction_times_load, varying_gain, wander };
+enum class Structure { none, direction_times_load, varying_gain, wander, offset };
 
 World makeWorld(Structure s, unsigned seed, double size) {
   World w;
@@ -31,6 +31,7 @@ World makeWorld(Structure s, unsigned seed, double size) {
     std::vector<int> units;
     std::mt19937_64 rng_drift(seed * 31 + t);  // its own stream: the other structures' draws stay as they were
     double e = 100 * z(rng), drift = size * z(rng_drift);
+    const double offset = (t == 0 ? 1 : -1) * size;  // the recordings' own offsets, opposite
     const double rho_drift = std::exp(-dt / 5.0);  // the stress suite's wander: 5 s correlation time
     for (int c = 0; c < 5; ++c, ++unit) {
       const double amp = 1 + 0.1 * z(rng), load = 700 * (1 + 0.1 * z(rng)), gain = size * z(rng);
@@ -52,6 +53,7 @@ World makeWorld(Structure s, unsigned seed, double size) {
         if (s == Structure::varying_gain) g = gain * f;
         drift = rho_drift * drift + size * std::sqrt(1 - rho_drift * rho_drift) * z(rng_drift);
         if (s == Structure::wander) g = drift;
+        if (s == Structure::offset) g = offset;
         res.push_back(e + g);
         fit_res.push_back(e + g);
         pred.push_back(f);
@@ -94,8 +96,8 @@ TEST(Remaining, PureNoiseLeavesNothing) {
     const RecordingWander rw = testRecordingWander(w.data);
     ASSERT_TRUE(rw.run) << rw.note;
     EXPECT_EQ(rw.recordings, 2);
-    EXPECT_EQ(rw.dof_trend, 8);  // two recordings of five cycles and four quarters: 20 cells, 4 + 5 - 1 fitted
-    EXPECT_EQ(rw.dof_error, 24);
+    EXPECT_EQ(rw.cells, 40);  // two recordings of five cycles and four quarters
+    EXPECT_EQ(rw.draws, 2000);
     wander += rw.significant;
   }
   EXPECT_LE(check, 2);
@@ -170,10 +172,9 @@ TEST(Remaining, SeesAGainVaryingFromCycleToCycle) {
 }
 
 // A wander of the recording's offset (an Ornstein-Uhlenbeck series with a 5 s correlation time,
-// independent per recording, as the stress suite injects): the trend over time takes up more than the
-// scatter of the quarters allows. Measured (10 seeds, at a fifth of 5 %): 5 found at 100 N, 8 at 200 N
-// (in 5 s recordings, what is left of a 5 s wander once each recording's mean is out is about half its
-// SD); the same worlds without it: WanderTestHoldsItsLevelOnSmoothNoise.
+// independent per recording, as the stress suite injects): the quarter cycles agree with their neighbours
+// in time beyond their successive differences. Measured (10 seeds, at a fifth of 5 %): found in 4 at 50 N,
+// 7 at 100 N, 10 at 200 N; the same worlds without it: WanderTestHoldsItsLevelOnSmoothNoise.
 TEST(Remaining, SeesAWanderWithinARecording) {
   for (double size : {100.0, 200.0}) {
     int found = 0;
@@ -184,13 +185,26 @@ TEST(Remaining, SeesAWanderWithinARecording) {
       found += w.significant;
       sd += w.wander_sd / 10;
     }
-    EXPECT_GE(found, size > 150 ? 7 : 3);
-    EXPECT_GT(sd, 0.25 * size);  // measured 44 and 88 N
+    EXPECT_GE(found, size > 150 ? 9 : 5);
+    EXPECT_GT(sd, 0.6 * size);  // measured 84 and 166 N
     EXPECT_LT(sd, size);
   }
 }
 
-// The test's level on pure smooth noise (100 N, 50 ms): 400 worlds at 5 % (measured 22, 5.5 %).
+// Each recording's own offset (+-100 N, the same over its five cycles): a model error common to its cycles
+// or a shift of the load cells' zero. The former trend test took the recording's mean curve out and could
+// not see it; the successive differences do not move with it. Measured: 10 of 10 at 100 N, 4 of 10 at 50 N.
+TEST(Remaining, SeesARecordingsOwnOffset) {
+  for (double size : {50.0, 100.0}) {
+    int found = 0;
+    for (unsigned seed = 1; seed <= 10; ++seed)
+      found += testRecordingWander(makeWorld(Structure::offset, seed, size).data).significant;
+    EXPECT_GE(found, size > 75 ? 9 : 2);
+  }
+}
+
+// The test's level on pure smooth noise (100 N, 50 ms): 400 worlds at 5 % (measured 21, 5.3 %; over 2000
+// worlds 122 at 5 % and 30 at 1 %: the quarters' small positive correlation makes it a little liberal).
 TEST(Remaining, WanderTestHoldsItsLevelOnSmoothNoise) {
   RemainingOptions o;
   o.alpha = 0.05;
