@@ -713,7 +713,9 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
     std::vector<std::pair<std::string, std::string>> scripts = {
         {tg + "_bands", bandsScript(r, d)}, {tg + "_fits", fitsScript(r, d)}, {tg + "_ranking", rankingScript(r, d)}};
     if (remaining_plot) scripts.emplace_back(tg + "_remaining", remainingScript(r, d));
-    for (const auto& [name, text] : scripts) {
+    for (const auto& [name, script] : scripts) {
+      // C++17 lambdas cannot capture structured bindings (g++ allows it, clang does not).
+      const std::string& text = script;
       writeFileAtomically(directory + "/" + name + ".gp", [&](std::ostream& f) { f << text; });
       written.push_back(name + ".gp");
       if (!have_gnuplot) continue;

@@ -181,9 +181,11 @@ std::vector<BatchTrialPlan> planBatch(const Manifest& manifest, const std::strin
 
 void writeTrialSetups(const BatchTrialPlan& plan) {
   fs::create_directories(plan.folder);
-  for (const auto& [path, contents] : plan.setup_files) {
+  for (const auto& [path, text] : plan.setup_files) {
     std::error_code ec;
-    if (fs::is_regular_file(path, ec) && readFileText(path) == contents) continue;
+    if (fs::is_regular_file(path, ec) && readFileText(path) == text) continue;
+    // C++17 lambdas cannot capture structured bindings (g++ allows it, clang does not).
+    const std::string& contents = text;
     writeFileAtomically(path, [&](std::ostream& os) { os << contents; });
   }
 }

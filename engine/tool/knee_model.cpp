@@ -630,7 +630,8 @@ void Builder::addPatfemJoint() {
 }
 
 void Builder::setRanges() {
-  for (const auto& [name, range] : s.ranges) {
+  for (const auto& [coordinate, range] : s.ranges) {
+    const std::string& name = coordinate;  // C++17 lambdas cannot capture structured bindings (clang)
     auto it = std::find_if(m->coordinates.begin(), m->coordinates.end(),
                            [&](const model::Coordinate& c) { return c.name == name; });
     if (it == m->coordinates.end())
