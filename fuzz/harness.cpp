@@ -1,0 +1,78 @@
+#include "harness.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "core/error.hpp"
+
+namespace kneesim::fuzz {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The folder of this process's input files, removed at exit (libFuzzer's -fork and -jobs run
+// several processes: each has its own folder).
+const fs::path& inputDir() {
+  static const fs::path dir = [] {
+    fs::path d = fs::temp_directory_path() / ("kneesim-fuzz-" + std::to_string(::getpid()));
+    fs::create_directories(d);
+    std::atexit([] {
+      std::error_code ec;
+      fs::remove_all(inputDir(), ec);
+    });
+    return d;
+  }();
+  return dir;
+}
+
+[[noreturn]] void finding(const char* what, const std::string& message) {
+  std::fprintf(stderr, "==kneesim-fuzz== FINDING: %s: %s\n", what, message.c_str());
+  std::abort();
+}
+
+}  // namespace
+
+const std::string& inputPath(const std::string& ext) {
+  static std::map<std::string, std::string> paths;
+  auto it = paths.find(ext);
+  if (it == paths.end()) it = paths.emplace(ext, (inputDir() / ("input" + ext)).string()).first;
+  return it->second;
+}
+
+const std::string& writeInput(const uint8_t* data, size_t size, const std::string& ext) {
+  const std::string& path = inputPath(ext);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) finding("harness", "cannot write " + path);
+  if (size && std::fwrite(data, 1, size, f) != size) finding("harness", "cannot write " + path);
+  std::fclose(f);
+  return path;
+}
+
+void expectInputErrorOnly(const std::function<void()>& read) {
+  try {
+    read();
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    if (msg.find('\n') != std::string::npos) finding("InputError of more than one line", msg);
+  } catch (const std::exception& e) {
+    finding("an exception other than InputError", e.what());
+  } catch (...) {
+    finding("a non-standard exception", "(unknown)");
+  }
+}
+
+int runReader(const uint8_t* data, size_t size, const std::string& ext,
+              const std::function<void(const std::string& path)>& read) {
+  const std::string& path = writeInput(data, size, ext);
+  expectInputErrorOnly([&] { read(path); });
+  return 0;
+}
+
+}  // namespace kneesim::fuzz

@@ -1,0 +1,30 @@
+# The fuzz targets: one per reader (docs/fuzzing.md). Each line names the target (its source is
+# fuzz/targets/<name>_fuzz.cpp, its seeds fuzz/corpus/<name>/, its reproducers
+# tests/*/fixtures/fuzz/<name>/) and the engine modules it links. This file is read by the fuzz
+# tree (fuzz/CMakeLists.txt builds the targets) and by the test suite (tests/fuzz/ runs them), each
+# with its own definition of kneesim_fuzz_target().
+kneesim_fuzz_target(c3d                 MODULES io)
+kneesim_fuzz_target(trc                 MODULES io)
+kneesim_fuzz_target(storage             MODULES io)
+kneesim_fuzz_target(csv                 MODULES io)
+kneesim_fuzz_target(knee_forces         MODULES io)
+kneesim_fuzz_target(stl_ascii           MODULES io)
+kneesim_fuzz_target(stl_binary          MODULES io)
+kneesim_fuzz_target(osim                MODULES model)
+kneesim_fuzz_target(actuator_set        MODULES model)
+kneesim_fuzz_target(urdf                MODULES model)
+kneesim_fuzz_target(ik_setup            MODULES ik)
+kneesim_fuzz_target(ik_tasks            MODULES ik)
+kneesim_fuzz_target(marker_placer       MODULES ik)
+kneesim_fuzz_target(id_setup            MODULES dynamics)
+kneesim_fuzz_target(external_loads      MODULES dynamics)
+kneesim_fuzz_target(analyze_setup       MODULES muscle)
+kneesim_fuzz_target(gap_setup           MODULES gap)
+kneesim_fuzz_target(gap_model           MODULES gap)
+kneesim_fuzz_target(contact_area_setup  MODULES tool)
+kneesim_fuzz_target(workflow_setup      MODULES tool)
+kneesim_fuzz_target(plugin_parameters   MODULES tool PLUGINS hertz elastic_foundation)
+kneesim_fuzz_target(knee_model_setup    MODULES tool)
+kneesim_fuzz_target(batch_trial         MODULES tool)
+kneesim_fuzz_target(batch_manifest_csv  MODULES tool)
+kneesim_fuzz_target(batch_manifest_toml MODULES tool)
