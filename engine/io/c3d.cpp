@@ -20,6 +20,7 @@ namespace {
 using namespace detail;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr long kMaxFrames = 100000000L;
 
 // Where the frames are and how they are stored.
 struct Layout {
@@ -97,13 +98,16 @@ void findFrames(C3dFile& out, Layout& l) {
   long frames = last - first + 1;
   const C3dParameter* pf = out.findParameter("POINT", "FRAMES");
   if (!have_trial && pf && !pf->values.empty()) {
-    const long n = long(pf->getUnsigned(0));
+    const long n = toWhole(out, pf->getUnsigned(0), 0, kMaxFrames, "POINT:FRAMES");
     if (n > frames) frames = n;  // header last frame saturated at 65535
   }
   if (frames < 0) frames = 0;
-  if (frames > 100000000L)
+  if (frames > kMaxFrames)
     fail("POINT:FRAMES", "expected at most 100000000 frames, got " + std::to_string(frames) + " (corrupt header?)");
   if (first < 1 && frames > 0) first = 1;
+  if (first + frames - 1 > long(std::numeric_limits<int>::max()))
+    fail("TRIAL:ACTUAL_START_FIELD", "expected frame numbers up to " + std::to_string(std::numeric_limits<int>::max()) +
+                                         ", got frames " + std::to_string(first) + ".." + std::to_string(first + frames - 1));
   out.first_frame = int(first);
   out.last_frame = int(first + frames - 1);
   l.first = first;
@@ -125,7 +129,7 @@ void findLayout(const std::vector<uint8_t>& b, const C3dFile& out, Layout& l) {
   if (frames > 0 && !(rate > 0))
     fail("POINT:RATE", "expected a positive frame rate, got " + std::to_string(rate));
 
-  int nch = int(firstValue(out, "ANALOG", "USED", -1, true));
+  int nch = int(firstWhole(out, "ANALOG", "USED", -1, 0, 65535, true));
   int spf = h.analog_samples_per_frame;
   if (nch < 0) nch = (spf > 0) ? h.analog_per_frame / spf : 0;
   if (h.analog_per_frame == 0) {
@@ -142,12 +146,18 @@ void findLayout(const std::vector<uint8_t>& b, const C3dFile& out, Layout& l) {
   }
 
   int data_start = h.data_start;
-  if (data_start == 0) data_start = int(firstValue(out, "POINT", "DATA_START", 0, true));
+  if (data_start == 0) data_start = int(firstWhole(out, "POINT", "DATA_START", 0, 0, 65535, true));
   if (data_start < 1) fail("header", "expected a data start block of 1 or more, got " + std::to_string(data_start));
   l.word = l.is_float ? 4 : 2;
   l.frame_bytes = (size_t(l.npoints) * 4 + size_t(h.analog_per_frame)) * l.word;
   l.dstart = size_t(data_start - 1) * kC3dBlock;
   const size_t frame_bytes = l.frame_bytes, dstart = l.dstart;
+  // Frames without point or analog data take no bytes, but each costs a time and a frame number:
+  // a corrupt frame count must not allocate gigabytes.
+  if (frame_bytes == 0 && size_t(frames) > b.size())
+    fail("POINT:FRAMES", "expected at most " + std::to_string(b.size()) + " frames in a file of " +
+                             std::to_string(b.size()) + " bytes without point or analog data, got " +
+                             std::to_string(frames));
   const size_t needed = dstart + size_t(frames) * frame_bytes;
   if (needed > b.size()) {
     const size_t complete = b.size() > dstart && frame_bytes > 0 ? (b.size() - dstart) / frame_bytes : 0;
@@ -166,6 +176,12 @@ void findLayout(const std::vector<uint8_t>& b, const C3dFile& out, Layout& l) {
   l.rate = rate;
   l.nch = nch;
   l.spf = spf;
+}
+
+// A float residual word no integer holds (the word is a float of camera mask x 256 + residual).
+[[noreturn]] void failResidual(const C3dFile& out, long frame, int point, float r) {
+  fail(out.path, "data/frame " + std::to_string(out.first_frame + frame) + "/point " + std::to_string(point + 1),
+       "expected a residual word of -1 (missing) or 0..2147483647, got " + formatSignificant(r, 6));
 }
 
 // Marker positions in metres (NaN where the residual word is negative) and their residuals.
@@ -200,6 +216,7 @@ void readPoints(const std::vector<uint8_t>& b, const Codec& c, const Layout& l, 
       if (is_float) {
         x = c.f32(q); y = c.f32(q + 4); z = c.f32(q + 8);
         const float r = c.f32(q + 12);
+        if (!(r < 2147483648.0f)) failResidual(out, f, i, r);  // NaN or beyond an int
         res_word = r < 0 ? -1 : int(r);
         q += 16;
       } else {

@@ -119,6 +119,14 @@ std::vector<double> joinValues(const C3dFile& f, const char* group, const std::s
 double firstValue(const C3dFile& f, const char* group, const char* name, double fallback, bool as_unsigned = false);
 // Frame number stored as two 16-bit words (low, high) in TRIAL:ACTUAL_START_FIELD/END_FIELD.
 bool trialField(const C3dFile& f, const char* name, long& out);
+// @p v, a value of the parameter @p element of @p f, as a whole number in [lo, hi] (a fraction is
+// dropped, as C3D readers do); an InputError naming the file and parameter otherwise. Converting
+// a float parameter of 1e10 or NaN to an integer unchecked is undefined behaviour.
+long toWhole(const C3dFile& f, double v, long lo, long hi, const std::string& element);
+// The first value of GROUP:NAME as a whole number in [lo, hi] (toWhole), or @p fallback when the
+// parameter is absent or empty.
+long firstWhole(const C3dFile& f, const char* group, const char* name, long fallback, long lo, long hi,
+                bool as_unsigned = false);
 
 // ---- force platforms (c3d_plates.cpp)
 

@@ -241,8 +241,24 @@ double firstValue(const C3dFile& f, const char* group, const char* name, double 
 bool trialField(const C3dFile& f, const char* name, long& out) {
   const C3dParameter* p = find(f, "TRIAL", name);
   if (!p || p->values.empty()) return false;
-  out = long(p->getUnsigned(0)) + (p->values.size() > 1 ? 65536L * long(p->getUnsigned(1)) : 0L);
+  const std::string element = std::string("TRIAL:") + name;
+  out = toWhole(f, p->getUnsigned(0), 0, 65535, element);
+  if (p->values.size() > 1) out += 65536L * toWhole(f, p->getUnsigned(1), 0, 65535, element);
   return true;
+}
+
+long toWhole(const C3dFile& f, double v, long lo, long hi, const std::string& element) {
+  if (!(v >= double(lo) && v < double(hi) + 1.0))
+    throw InputError({f.path, 0, element}, "expected a whole number in " + std::to_string(lo) + ".." +
+                                               std::to_string(hi) + ", got " + formatSignificant(v, 6));
+  return long(v);
+}
+
+long firstWhole(const C3dFile& f, const char* group, const char* name, long fallback, long lo, long hi,
+                bool as_unsigned) {
+  const C3dParameter* p = find(f, group, name);
+  if (!p || p->values.empty()) return fallback;
+  return toWhole(f, as_unsigned ? p->getUnsigned(0) : p->values[0], lo, hi, std::string(group) + ":" + name);
 }
 
 }  // namespace detail

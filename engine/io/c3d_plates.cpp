@@ -18,7 +18,7 @@ void readForcePlates(C3dFile& out, int nch, double to_m) {
   auto fail = [&](const std::string& element, const std::string& msg) -> void {
     throw InputError({out.path, 0, element}, msg);
   };
-  const int nplates = int(firstValue(out, "FORCE_PLATFORM", "USED", 0));
+  const int nplates = int(firstWhole(out, "FORCE_PLATFORM", "USED", 0, -32768, 65535));
   if (nplates > 0) {
     const C3dParameter* pt = out.findParameter("FORCE_PLATFORM", "TYPE");
     const C3dParameter* pc = out.findParameter("FORCE_PLATFORM", "CORNERS");
@@ -41,16 +41,16 @@ void readForcePlates(C3dFile& out, int nch, double to_m) {
     require(pch, "CHANNEL", per_plate * size_t(nplates));
     for (int p = 0; p < nplates; ++p) {
       ForcePlate fp;
-      fp.type = int(pt->values[size_t(p)]);
+      fp.type = int(toWhole(out, pt->values[size_t(p)], -32768, 65535, "FORCE_PLATFORM:TYPE"));
       for (int k = 0; k < 4; ++k)
         for (int j = 0; j < 3; ++j) fp.corners_m(j, k) = pc->values[size_t(12 * p + 3 * k + j)] * to_m;
       for (int j = 0; j < 3; ++j) fp.origin_m[j] = po->values[size_t(3 * p + j)] * to_m;
       for (size_t k = 0; k < per_plate; ++k) {
-        const int chn = int(pch->values[size_t(p) * per_plate + k]);
-        if (chn < 1 || chn > nch)
+        const double chn = pch->values[size_t(p) * per_plate + k];
+        if (!(chn >= 1 && chn < nch + 1.0))  // NaN too; checked before it becomes an integer
           fail("FORCE_PLATFORM:CHANNEL", "plate " + std::to_string(p + 1) + ": expected analog channel numbers 1.." +
-                                             std::to_string(nch) + ", got " + std::to_string(chn));
-        fp.channels.push_back(chn - 1);
+                                             std::to_string(nch) + ", got " + formatSignificant(chn, 6));
+        fp.channels.push_back(int(chn) - 1);
       }
       fp.cal_matrix.setIdentity();
       if (pcal && pcal->dims.size() >= 2 && pcal->dims[0] == 6 && pcal->dims[1] == 6 &&

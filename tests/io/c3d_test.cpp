@@ -9,6 +9,7 @@
 #include <random>
 
 #include "io_test_util.hpp"
+#include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::io {
@@ -559,6 +560,49 @@ TEST(C3d, BadInputsAreOneLineErrors) {
 
   writeBytes(dir + "/tiny.c3d", "hello");
   EXPECT_THAT(inputErrorOf([&] { readC3d(dir + "/tiny.c3d"); }), HasSubstr("expected a C3D header of 512 bytes"));
+}
+
+// Hostile files found by fuzzing (fuzz/, docs/fuzzing.md) and made by
+// fixtures/fuzz/make_c3d_reproducers.py from the seed fuzz/corpus/c3d/gait-intel-float.c3d. Each
+// held a float where the reader wants an integer, beyond any integer: converting it was undefined
+// behaviour (UBSan: "1e+10 is outside the range of representable values of type 'int'").
+TEST(C3dFuzz, FloatParametersBeyondAnyIntegerAreOneLineErrors) {
+  const std::map<std::string, std::string> expected = {
+      {"point-data-start-1e10.c3d", "point-data-start-1e10.c3d: POINT:DATA_START: expected a whole number in 0..65535, got 1e+10"},
+      {"analog-used-3e9.c3d", "analog-used-3e9.c3d: ANALOG:USED: expected a whole number in 0..65535, got 3e+09"},
+      {"force-platform-used-1e10.c3d", "force-platform-used-1e10.c3d: FORCE_PLATFORM:USED: expected a whole number in -32768..65535, got 1e+10"},
+      {"force-platform-type-1e10.c3d", "force-platform-type-1e10.c3d: FORCE_PLATFORM:TYPE: expected a whole number in -32768..65535, got 1e+10"},
+      {"force-platform-channel-1e10.c3d", "force-platform-channel-1e10.c3d: FORCE_PLATFORM:CHANNEL: plate 1: expected analog channel numbers 1..36, got 1e+10"},
+      {"residual-3e9.c3d", "residual-3e9.c3d: data/frame 218/point 1: expected a residual word of -1 (missing) or 0..2147483647, got 3e+09"},
+      {"residual-nan.c3d", "residual-nan.c3d: data/frame 218/point 1: expected a residual word of -1 (missing) or 0..2147483647, got nan"}};
+  for (const auto& [file, message] : expected) {
+    SCOPED_TRACE(file);
+    const std::string msg = inputErrorOf([&] { readC3d(test::fixturePath("fixtures/fuzz/c3d/" + file)); });
+    EXPECT_THAT(msg, HasSubstr(message));
+  }
+  // The seed they were made from reads.
+  EXPECT_EQ(readC3d(test::sourcePath("fuzz/corpus/c3d/gait-intel-float.c3d")).plates.size(), 3u);
+}
+
+// Absurd frame counts are refused before anything is allocated (issue 21 part 4), in a child
+// process limited to 256 MB more than the test uses: a reader that allocated what the file claims
+// would fail there with "out of memory" rather than take the machine's memory.
+TEST(C3dFuzz, AbsurdFrameCountsAreRefusedBeforeAllocating) {
+  const std::map<std::string, std::string> expected = {
+      // TRIAL fields claiming 2^31 frames.
+      {"frames-2e31.c3d", "POINT:FRAMES: expected at most 100000000 frames, got 2147483648"},
+      // POINT:FRAMES = 1e8 with 3 frames of data.
+      // (a frame of the seed is 56 points x 4 + 360 analog values, floats: 2336 bytes)
+      {"point-frames-1e8.c3d", "data: truncated C3D data: expected 100000000 frames x 2336 bytes"},
+      // POINT:FRAMES = 1e8 of nothing (no points, no analog): 1.2 GB of times and frame numbers.
+      {"no-data-frames-1e8.c3d", "POINT:FRAMES: expected at most 16384 frames in a file of 16384 bytes without point or analog data, got 100000000"}};
+  for (const auto& [file, message] : expected) {
+    SCOPED_TRACE(file);
+    const std::string path = test::fixturePath("fixtures/fuzz/c3d/" + file);
+    const test::LimitedRun run = test::runWithMemoryLimit([&] { return readC3d(path).path; });
+    EXPECT_EQ(run.outcome, "input error");
+    EXPECT_THAT(run.message, HasSubstr(message));
+  }
 }
 
 }  // namespace
