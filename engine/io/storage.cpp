@@ -39,14 +39,39 @@ bool isReservedKey(const std::string& key) {
 
 }  // namespace
 
-Storage readStorage(const std::string& path) {
-  const std::string text = readFileText(path);
-  detail::LineReader lines(text);
-  std::string_view line;
-  Storage s;
-  long n_rows = -1, n_columns = -1;
-  bool saw_in_degrees = false, simm = false, saw_endheader = false, first = true;
+namespace {
 
+// What the header says beyond the Storage's own fields.
+struct StorageHeader {
+  long n_rows = -1, n_columns = -1;  // -1: not given
+};
+
+// One "key=value" header line (nRows, nColumns, inDegrees or any other key).
+void readKeyValue(const SourceLocation& at, std::string_view t, size_t eq, Storage& s, StorageHeader& h,
+                  bool& saw_in_degrees) {
+  const std::string key(trim(t.substr(0, eq)));
+  const std::string value(trim(t.substr(eq + 1)));
+  if (equalsIgnoreCase(key, "nRows")) {
+    h.n_rows = parseInt(value, {at.file, at.line, "nRows"});
+  } else if (equalsIgnoreCase(key, "nColumns")) {
+    h.n_columns = parseInt(value, {at.file, at.line, "nColumns"});
+  } else if (equalsIgnoreCase(key, "inDegrees")) {
+    const std::string v = toLower(value);
+    if (v == "yes" || v == "true") s.in_degrees = true;
+    else if (v == "no" || v == "false") s.in_degrees = false;
+    else throw InputError({at.file, at.line, "inDegrees"}, "expected yes or no, got '" + value + "'");
+    saw_in_degrees = true;
+  } else if (!equalsIgnoreCase(key, "version")) {
+    s.header.emplace_back(key, value);
+  }
+}
+
+// The header, up to and including "endheader": OpenSim's key=value lines, comments and SIMM's
+// "key value" lines (a SIMM file's angles are in degrees unless it says otherwise).
+StorageHeader readHeader(const std::string& path, detail::LineReader& lines, Storage& s) {
+  std::string_view line;
+  StorageHeader h;
+  bool saw_in_degrees = false, simm = false, saw_endheader = false, first = true;
   while (lines.next(line)) {
     const std::string_view t = trim(line);
     const SourceLocation at{path, lines.getLineNumber(), ""};
@@ -62,23 +87,8 @@ Storage readStorage(const std::string& path) {
       }
     }
     if (t.empty() || t == kUnitsLine || t == kDegreesLine) continue;
-    const size_t eq = t.find('=');
-    if (eq != std::string_view::npos) {
-      const std::string key(trim(t.substr(0, eq)));
-      const std::string value(trim(t.substr(eq + 1)));
-      if (equalsIgnoreCase(key, "nRows")) {
-        n_rows = parseInt(value, {path, at.line, "nRows"});
-      } else if (equalsIgnoreCase(key, "nColumns")) {
-        n_columns = parseInt(value, {path, at.line, "nColumns"});
-      } else if (equalsIgnoreCase(key, "inDegrees")) {
-        const std::string v = toLower(value);
-        if (v == "yes" || v == "true") s.in_degrees = true;
-        else if (v == "no" || v == "false") s.in_degrees = false;
-        else throw InputError({path, at.line, "inDegrees"}, "expected yes or no, got '" + value + "'");
-        saw_in_degrees = true;
-      } else if (!equalsIgnoreCase(key, "version")) {
-        s.header.emplace_back(key, value);
-      }
+    if (const size_t eq = t.find('='); eq != std::string_view::npos) {
+      readKeyValue(at, t, eq, s, h, saw_in_degrees);
       continue;
     }
     if (t[0] == '#') {
@@ -92,15 +102,19 @@ Storage readStorage(const std::string& path) {
     const std::string key(t.substr(0, sp));
     const std::string value(trim(t.substr(sp)));
     if (key == "datacolumns" || key == "datarows" || key == "otherdata" || key == "range") simm = true;
-    if (key == "datarows" && n_rows < 0) n_rows = parseInt(value, {path, at.line, "datarows"});
-    if (key == "datacolumns" && n_columns < 0) n_columns = parseInt(value, {path, at.line, "datacolumns"});
+    if (key == "datarows" && h.n_rows < 0) h.n_rows = parseInt(value, {path, at.line, "datarows"});
+    if (key == "datacolumns" && h.n_columns < 0) h.n_columns = parseInt(value, {path, at.line, "datacolumns"});
     s.header.emplace_back(key, value);
   }
   if (!saw_endheader)
     throw InputError({path, lines.getLineNumber(), ""}, "expected a header ending in 'endheader', not found");
   if (!saw_in_degrees && simm) s.in_degrees = true;
+  return h;
+}
 
-  // Column labels: first non-blank line after the header.
+// The column labels: the first non-blank line after the header (nColumns of them, if given).
+void readLabels(const std::string& path, detail::LineReader& lines, const StorageHeader& h, Storage& s) {
+  std::string_view line;
   bool have_labels = false;
   while (lines.next(line)) {
     if (detail::isBlank(line)) continue;
@@ -115,15 +129,20 @@ Storage readStorage(const std::string& path) {
     break;
   }
   if (!have_labels) throw InputError({path, lines.getLineNumber() + 1, ""}, "expected the column-label line after endheader, file ends");
-  if (n_columns >= 0 && long(s.labels.size()) != n_columns)
-    throw InputError({path, lines.getLineNumber(), ""}, "expected " + std::to_string(n_columns) +
+  if (h.n_columns >= 0 && long(s.labels.size()) != h.n_columns)
+    throw InputError({path, lines.getLineNumber(), ""}, "expected " + std::to_string(h.n_columns) +
                                                             " column labels (nColumns), got " +
                                                             std::to_string(s.labels.size()));
-  const size_t nc = s.labels.size();
+}
 
+// The data rows (one value per label each; nRows of them, if given) into s.data.
+void readRows(const std::string& path, detail::LineReader& lines, const StorageHeader& h, size_t text_size, Storage& s) {
+  const size_t nc = s.labels.size();
   std::vector<double> values;
-  values.reserve(std::min(size_t(n_rows > 0 ? n_rows : 64) * nc, text.size() / 2 + 1));
+  // Reserved from nRows but never beyond what the text can hold: a corrupt count must not allocate.
+  values.reserve(std::min(size_t(h.n_rows > 0 ? h.n_rows : 64) * nc, text_size / 2 + 1));
   std::vector<std::string_view> cells;
+  std::string_view line;
   size_t rows = 0;
   while (lines.next(line)) {
     if (detail::isBlank(line)) continue;
@@ -139,12 +158,23 @@ Storage readStorage(const std::string& path) {
     }
     ++rows;
   }
-  if (n_rows >= 0 && long(rows) != n_rows)
-    throw InputError({path, lines.getLineNumber(), ""}, "expected " + std::to_string(n_rows) + " data rows (nRows), got " +
-                                                            std::to_string(rows) + (long(rows) < n_rows ? " (truncated file?)" : ""));
+  if (h.n_rows >= 0 && long(rows) != h.n_rows)
+    throw InputError({path, lines.getLineNumber(), ""}, "expected " + std::to_string(h.n_rows) + " data rows (nRows), got " +
+                                                            std::to_string(rows) + (long(rows) < h.n_rows ? " (truncated file?)" : ""));
   s.data.resize(Eigen::Index(rows), Eigen::Index(nc));
   for (size_t r = 0; r < rows; ++r)
     for (size_t c = 0; c < nc; ++c) s.data(Eigen::Index(r), Eigen::Index(c)) = values[r * nc + c];
+}
+
+}  // namespace
+
+Storage readStorage(const std::string& path) {
+  const std::string text = readFileText(path);
+  detail::LineReader lines(text);
+  Storage s;
+  const StorageHeader h = readHeader(path, lines, s);
+  readLabels(path, lines, h, s);
+  readRows(path, lines, h, text.size(), s);
   return s;
 }
 

@@ -33,30 +33,47 @@ std::vector<std::string> nonEmptyCells(std::string_view line) {
   return out;
 }
 
-}  // namespace
-
-MarkerTable readTrc(const std::string& path) {
-  const std::string text = readFileText(path);
-  LineReader lines(text);
+// The lines of a TRC file being read, and where errors are.
+struct TrcLines {
+  const std::string& path;
+  LineReader lines;
   std::string_view line;
-  auto at = [&](const std::string& element) { return SourceLocation{path, lines.getLineNumber(), element}; };
-  auto need = [&](const char* what) {
+
+  SourceLocation at(const std::string& element) const { return {path, lines.getLineNumber(), element}; }
+  // Fetches the next line; "file ends early" naming what was expected at the end.
+  void need(const char* what) {
     if (!lines.next(line))
       throw InputError({path, lines.getLineNumber() + 1, ""}, std::string("file ends early: expected ") + what);
-  };
+  }
+};
 
-  need("the PathFileType line");
-  if (!startsWith(trim(line), "PathFileType"))
-    throw InputError(at(""), "expected a TRC file starting with 'PathFileType', got " + detail::quoteForMessage(line));
+// What the header lines say.
+struct TrcHeader {
+  int num_frames = 0, num_markers = 0;
+  double scale = 1.0;  // to metres
+};
 
-  need("the header keys (DataRate CameraRate NumFrames NumMarkers Units ...)");
-  const std::vector<std::string> keys = nonEmptyCells(line);
-  const int keys_line = lines.getLineNumber();
-  need("the header values");
-  const std::vector<std::string> values = nonEmptyCells(line);
+// A header count: a whole number in 0..max.
+int readCount(const TrcLines& in, const std::string& value, const char* key, double max) {
+  const double v = parseDouble(value, in.at(key));
+  if (v < 0 || v != std::floor(v) || v > max)
+    throw InputError(in.at(key), "expected a non-negative whole number, got '" + value + "'");
+  return int(v);
+}
+
+// Lines 1-3: PathFileType, the header keys and their values (DataRate, NumFrames, NumMarkers, Units).
+TrcHeader readHeader(TrcLines& in, MarkerTable& table) {
+  in.need("the PathFileType line");
+  if (!startsWith(trim(in.line), "PathFileType"))
+    throw InputError(in.at(""), "expected a TRC file starting with 'PathFileType', got " + detail::quoteForMessage(in.line));
+  in.need("the header keys (DataRate CameraRate NumFrames NumMarkers Units ...)");
+  const std::vector<std::string> keys = nonEmptyCells(in.line);
+  const int keys_line = in.lines.getLineNumber();
+  in.need("the header values");
+  const std::vector<std::string> values = nonEmptyCells(in.line);
   if (values.size() != keys.size())
-    throw InputError(at(""), "expected " + std::to_string(keys.size()) + " header values for the keys of line " +
-                                 std::to_string(keys_line) + ", got " + std::to_string(values.size()));
+    throw InputError(in.at(""), "expected " + std::to_string(keys.size()) + " header values for the keys of line " +
+                                    std::to_string(keys_line) + ", got " + std::to_string(values.size()));
   auto findValue = [&](const char* key) -> const std::string* {
     for (size_t i = 0; i < keys.size(); ++i)
       if (equalsIgnoreCase(keys[i], key)) return &values[i];
@@ -64,92 +81,104 @@ MarkerTable readTrc(const std::string& path) {
   };
   for (const char* k : {"DataRate", "NumFrames", "NumMarkers", "Units"})
     if (!findValue(k))
-      throw InputError({path, keys_line, k}, std::string("expected the header key ") + k + " on line " +
-                                                 std::to_string(keys_line) + ", not found");
-
-  MarkerTable table;
-  table.source_file = path;
-  table.rate = parseDouble(*findValue("DataRate"), at("DataRate"));
-  const double frames_d = parseDouble(*findValue("NumFrames"), at("NumFrames"));
-  const double markers_d = parseDouble(*findValue("NumMarkers"), at("NumMarkers"));
-  if (frames_d < 0 || frames_d != std::floor(frames_d) || frames_d > 1e8)
-    throw InputError(at("NumFrames"), "expected a non-negative whole number, got '" + *findValue("NumFrames") + "'");
-  if (markers_d < 0 || markers_d != std::floor(markers_d) || markers_d > 1e6)
-    throw InputError(at("NumMarkers"), "expected a non-negative whole number, got '" + *findValue("NumMarkers") + "'");
-  const int num_frames = int(frames_d);
-  const int num_markers = int(markers_d);
+      throw InputError({in.path, keys_line, k}, std::string("expected the header key ") + k + " on line " +
+                                                    std::to_string(keys_line) + ", not found");
+  TrcHeader h;
+  table.rate = parseDouble(*findValue("DataRate"), in.at("DataRate"));
+  h.num_frames = readCount(in, *findValue("NumFrames"), "NumFrames", 1e8);
+  h.num_markers = readCount(in, *findValue("NumMarkers"), "NumMarkers", 1e6);
   const std::string& units = *findValue("Units");
-  const double scale = detail::findLengthUnitScale(units);
-  if (scale == 0)
-    throw InputError(at("Units"), "expected a length unit mm, cm or m, got '" + units + "'");
+  h.scale = detail::findLengthUnitScale(units);
+  if (h.scale == 0) throw InputError(in.at("Units"), "expected a length unit mm, cm or m, got '" + units + "'");
   table.original_units = toLower(units);
-  if (scale == 1e-3) table.original_units = "mm";
-  if (scale == 1e-2) table.original_units = "cm";
-  if (scale == 1.0) table.original_units = "m";
+  if (h.scale == 1e-3) table.original_units = "mm";
+  if (h.scale == 1e-2) table.original_units = "cm";
+  if (h.scale == 1.0) table.original_units = "m";
+  return h;
+}
 
-  need("the marker-name line (Frame# Time <markers>)");
-  std::vector<std::string> names = nonEmptyCells(line);
+// Lines 4-5: the marker names (Frame# Time <markers>) and the X1 Y1 Z1 ... labels.
+void readMarkerNames(TrcLines& in, int num_markers, MarkerTable& table) {
+  in.need("the marker-name line (Frame# Time <markers>)");
+  std::vector<std::string> names = nonEmptyCells(in.line);
   if (names.size() < 2 || !equalsIgnoreCase(names[0], "Frame#") || !equalsIgnoreCase(names[1], "Time"))
-    throw InputError(at(""), "expected the marker-name line to start with 'Frame#' and 'Time', got " +
-                                 detail::quoteForMessage(line));
+    throw InputError(in.at(""), "expected the marker-name line to start with 'Frame#' and 'Time', got " +
+                                    detail::quoteForMessage(in.line));
   names.erase(names.begin(), names.begin() + 2);
   if (int(names.size()) != num_markers)
-    throw InputError(at(""), "expected " + std::to_string(num_markers) + " marker names (NumMarkers), got " +
-                                 std::to_string(names.size()));
+    throw InputError(in.at(""), "expected " + std::to_string(num_markers) + " marker names (NumMarkers), got " +
+                                    std::to_string(names.size()));
   table.labels = std::move(names);
+  in.need("the X1 Y1 Z1 ... line");
+  const std::vector<std::string> xyz = nonEmptyCells(in.line);
+  if (num_markers > 0 && (xyz.empty() || (xyz[0] != "X1" && xyz[0] != "x1")))
+    throw InputError(in.at(""), "expected the coordinate-label line 'X1 Y1 Z1 ...', got " + detail::quoteForMessage(in.line));
+}
 
-  need("the X1 Y1 Z1 ... line");
-  {
-    const std::vector<std::string> xyz = nonEmptyCells(line);
-    if (num_markers > 0 && (xyz.empty() || (xyz[0] != "X1" && xyz[0] != "x1")))
-      throw InputError(at(""), "expected the coordinate-label line 'X1 Y1 Z1 ...', got " + detail::quoteForMessage(line));
-  }
-
-  const size_t expected_cells = 2 + 3 * size_t(num_markers);
+// One data row already split into @p cells (Frame#, Time, X Y Z per marker), appended to @p table.
+void readFrame(const TrcLines& in, const TrcHeader& h, const std::vector<std::string_view>& cells, MarkerTable& table) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  double v;
+  // A frame number is a whole number an int holds (converting 1e10 or inf is undefined behaviour).
+  if (!detail::parseNumber(cells[0], v) || v != std::floor(v) || !(std::fabs(v) <= 2147483647.0))
+    throw InputError(in.at("Frame#"), "expected a frame number, got " + detail::quoteForMessage(cells[0]));
+  table.frame_numbers.push_back(int(v));
+  if (!detail::parseNumber(cells[1], v) || !std::isfinite(v))
+    throw InputError(in.at("Time"), "expected a time in s, got " + detail::quoteForMessage(cells[1]));
+  table.time.push_back(v);
+  for (int m = 0; m < h.num_markers; ++m) {
+    Eigen::Vector3d p;
+    bool missing = false;
+    for (int k = 0; k < 3; ++k) {
+      const std::string_view c = cells[2 + 3 * size_t(m) + size_t(k)];
+      if (detail::isBlank(c)) {
+        missing = true;
+        continue;
+      }
+      if (!detail::parseNumber(c, p[k]))
+        throw InputError(in.at(table.labels[size_t(m)] + "/" + "XYZ"[k]), "expected a number, got " + detail::quoteForMessage(c));
+      if (std::isnan(p[k])) missing = true;
+    }
+    // A marker with any coordinate missing is missing as a whole (as OpenSim reads it).
+    table.positions.push_back(missing ? Eigen::Vector3d(nan, nan, nan) : Eigen::Vector3d(p * h.scale));
+  }
+}
+
+// The data rows after the header, NumFrames of them at least.
+void readFrames(TrcLines& in, const TrcHeader& h, size_t text_size, MarkerTable& table) {
+  const size_t expected_cells = 2 + 3 * size_t(h.num_markers);
   // Reserve from the header but never beyond what the text can hold (a corrupt NumFrames must
   // not allocate gigabytes): each row takes at least 2 bytes, each coordinate at least 1.
-  const size_t max_rows = std::min(size_t(num_frames), text.size() / 2 + 1);
+  const size_t max_rows = std::min(size_t(h.num_frames), text_size / 2 + 1);
   table.time.reserve(max_rows);
   table.frame_numbers.reserve(max_rows);
-  table.positions.reserve(std::min(max_rows * size_t(num_markers), text.size() / 3 + 1));
+  table.positions.reserve(std::min(max_rows * size_t(h.num_markers), text_size / 3 + 1));
   std::vector<std::string_view> cells;
-  while (lines.next(line)) {
-    if (detail::isBlank(line)) continue;
-    splitCells(line, cells);
+  while (in.lines.next(in.line)) {
+    if (detail::isBlank(in.line)) continue;
+    splitCells(in.line, cells);
     while (cells.size() > expected_cells && detail::isBlank(cells.back())) cells.pop_back();
     if (cells.size() != expected_cells)
-      throw InputError(at(""), "expected " + std::to_string(expected_cells) + " cells (Frame#, Time and X Y Z for " +
-                                   std::to_string(num_markers) + " markers), got " + std::to_string(cells.size()));
-    double v;
-    if (!detail::parseNumber(cells[0], v) || v != std::floor(v))
-      throw InputError(at("Frame#"), "expected a frame number, got " + detail::quoteForMessage(cells[0]));
-    table.frame_numbers.push_back(int(v));
-    if (!detail::parseNumber(cells[1], v) || !std::isfinite(v))
-      throw InputError(at("Time"), "expected a time in s, got " + detail::quoteForMessage(cells[1]));
-    table.time.push_back(v);
-    for (int m = 0; m < num_markers; ++m) {
-      Eigen::Vector3d p;
-      bool missing = false;
-      for (int k = 0; k < 3; ++k) {
-        const std::string_view c = cells[2 + 3 * size_t(m) + size_t(k)];
-        if (detail::isBlank(c)) {
-          missing = true;
-          continue;
-        }
-        if (!detail::parseNumber(c, p[k]))
-          throw InputError(at(table.labels[size_t(m)] + "/" + "XYZ"[k]),
-                           "expected a number, got " + detail::quoteForMessage(c));
-        if (std::isnan(p[k])) missing = true;
-      }
-      // A marker with any coordinate missing is missing as a whole (as OpenSim reads it).
-      table.positions.push_back(missing ? Eigen::Vector3d(nan, nan, nan) : Eigen::Vector3d(p * scale));
-    }
+      throw InputError(in.at(""), "expected " + std::to_string(expected_cells) + " cells (Frame#, Time and X Y Z for " +
+                                      std::to_string(h.num_markers) + " markers), got " + std::to_string(cells.size()));
+    readFrame(in, h, cells, table);
   }
-  if (int(table.time.size()) < num_frames)
-    throw InputError({path, lines.getLineNumber() + 1, ""},
-                     "truncated TRC file: header promises NumFrames=" + std::to_string(num_frames) + " rows, got " +
+  if (int(table.time.size()) < h.num_frames)
+    throw InputError({in.path, in.lines.getLineNumber() + 1, ""},
+                     "truncated TRC file: header promises NumFrames=" + std::to_string(h.num_frames) + " rows, got " +
                          std::to_string(table.time.size()));
+}
+
+}  // namespace
+
+MarkerTable readTrc(const std::string& path) {
+  const std::string text = readFileText(path);
+  TrcLines in{path, LineReader(text), {}};
+  MarkerTable table;
+  table.source_file = path;
+  const TrcHeader h = readHeader(in, table);
+  readMarkerNames(in, h.num_markers, table);
+  readFrames(in, h, text.size(), table);
   return table;
 }
 

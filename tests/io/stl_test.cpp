@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "core/error.hpp"
+#include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::io {
@@ -81,6 +82,17 @@ TEST(Stl, JwImplantIsClosedAndInMetres) {
   // The femoral component has two edges where two sheets of its surface touch (each shared by
   // four triangles): still watertight, reported rather than rejected.
   EXPECT_EQ(fem.calcEdgeReport().pinched, 2);
+}
+
+// A binary STL whose triangle count says 10^9 over one triangle (134 bytes) is refused by the
+// count's check against the file size, before anything is allocated for the triangles (issue 21
+// part 4): checked in a child process limited to 256 MB more than the test uses.
+TEST(StlFuzz, ABinaryCountOfABillionTrianglesIsRefusedBeforeAllocating) {
+  const std::string path = test::fixturePath("fixtures/fuzz/stl_binary/count-1e9.stl");
+  const test::LimitedRun run = test::runWithMemoryLimit([&] { return readStl(path).source_file; });
+  EXPECT_EQ(run.outcome, "input error");
+  EXPECT_EQ(run.message, path + ": truncated binary STL: header promises 1000000000 triangles (50000000084 bytes), "
+                                "file has 134 bytes");
 }
 
 }  // namespace

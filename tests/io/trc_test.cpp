@@ -8,6 +8,7 @@
 
 #include "io/marker_table.hpp"
 #include "io_test_util.hpp"
+#include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::io {
@@ -201,6 +202,27 @@ TEST(Trc, DamagedTextOnlyEverThrowsInputError) {
   }
   EXPECT_GT(ok, 50);
   EXPECT_GT(rejected, 50);
+}
+
+// Found by fuzzing (fuzz/, docs/fuzzing.md): a whole frame number no int holds was converted to
+// one (undefined behaviour, UBSan: "1e+10 is outside the range of representable values of type
+// 'int'"). The reproducers are fixtures/fuzz/trc/.
+TEST(TrcFuzz, FrameNumbersNoIntegerHoldsAreOneLineErrors) {
+  for (const std::string file : {"frame-1e10.trc", "frame-inf.trc"}) {
+    const std::string path = test::fixturePath("fixtures/fuzz/trc/" + file);
+    EXPECT_EQ(inputErrorOf([&] { readTrc(path); }),
+              path + ":7: Frame#: expected a frame number, got '" + (file == "frame-inf.trc" ? "inf" : "1e10") + "'");
+  }
+}
+
+// A header claiming a million markers (and 10^8 frames) over one name is refused before anything
+// is allocated for them (issue 21 part 4), checked in a child process limited to 256 MB more than
+// the test uses.
+TEST(TrcFuzz, AHeaderClaimingAMillionMarkersIsRefusedBeforeAllocating) {
+  const std::string path = test::fixturePath("fixtures/fuzz/trc/markers-1e6.trc");
+  const test::LimitedRun run = test::runWithMemoryLimit([&] { return readTrc(path).source_file; });
+  EXPECT_EQ(run.outcome, "input error");
+  EXPECT_EQ(run.message, path + ":4: expected 1000000 marker names (NumMarkers), got 1");
 }
 
 TEST(MarkerTable, ReadMarkerFileDispatchesOnExtensionAndFindsMarkers) {
