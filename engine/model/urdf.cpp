@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <locale>
 #include <map>
 #include <mutex>
 #include <set>
@@ -63,18 +64,37 @@ urdf::ModelInterfaceSharedPtr parseWithUrdfdom(const std::string& text, std::str
   return model;
 }
 
-/// Numbers in an attribute, checked with file and line (urdfdom would only print a message).
+/// A number as urdfdom reads one (urdf::strToDouble: a C++ stream in the classic locale that must
+/// take the whole text), so that what passes here passes urdfdom too.
+bool parseUrdfNumber(const std::string& s, double& v) {
+  std::stringstream ss;
+  ss.imbue(std::locale::classic());
+  ss << s;
+  ss >> v;
+  return !ss.fail() && ss.eof();
+}
+
+/// Numbers in an attribute, checked with file and line (urdfdom would only print a message), and
+/// finite. Read as urdfdom reads them: a single number is the whole attribute; a vector is split
+/// on spaces (urdf::Vector3::init: only ' ', empty pieces skipped).
 std::vector<double> attrNumbers(const Node& n, const char* key, size_t count, bool required) {
   const auto a = n.attr(key);
   if (!a) {
     if (required) n.fail(std::string("missing attribute '") + key + "'");
     return {};
   }
+  std::vector<std::string> pieces;
+  if (count == 1) {
+    pieces.push_back(*a);
+  } else {
+    for (auto w : splitOn(*a, ' '))
+      if (!w.empty()) pieces.emplace_back(w);
+  }
   std::vector<double> out;
-  for (auto w : splitWhitespace(*a)) {
+  for (const std::string& w : pieces) {
     double v;
-    if (!tryParseDouble(w, v) || !std::isfinite(v))
-      n.fail(std::string("attribute '") + key + "': expected a number, got '" + std::string(w) + "'");
+    if (!parseUrdfNumber(w, v) || !std::isfinite(v))
+      n.fail(std::string("attribute '") + key + "': expected a number, got '" + w + "'");
     out.push_back(v);
   }
   if (count && out.size() != count)
@@ -87,6 +107,30 @@ void checkOrigin(const Node& owner) {
   for (const Node& o : owner.children("origin")) {
     attrNumbers(o, "xyz", 3, false);
     attrNumbers(o, "rpy", 3, false);
+  }
+}
+
+/// The shape of a <visual> or <collision>: urdfdom leaks the shape when one of its attributes does
+/// not parse (urdfdom 3.0's parseGeometry drops its raw pointer on the error path), so every
+/// attribute it reads is checked here first and urdfdom only ever sees numbers.
+void checkGeometry(const Node& geometry) {
+  if (!geometry) return;
+  const std::vector<Node> shapes = geometry.children();
+  if (shapes.empty()) return;
+  const Node& shape = shapes.front();  // urdfdom reads the first element only
+  const std::string type = shape.name();
+  if (type == "mesh") {
+    if (shape.attr("filename").value_or("").empty()) shape.fail("expected a filename attribute, got none");
+    attrNumbers(shape, "scale", 3, false);
+  } else if (type == "box") {
+    attrNumbers(shape, "size", 3, true);
+  } else if (type == "sphere") {
+    attrNumbers(shape, "radius", 1, true);
+  } else if (type == "cylinder") {
+    attrNumbers(shape, "radius", 1, true);
+    attrNumbers(shape, "length", 1, true);
+  } else {
+    shape.fail("unknown geometry <" + type + "> (expected box, cylinder, sphere or mesh)");
   }
 }
 
@@ -111,10 +155,7 @@ void validateUrdf(const xml::Document& doc, std::vector<Node>& links, std::vecto
     for (const char* tag : {"visual", "collision"})
       for (const Node& v : l.children(tag)) {
         checkOrigin(v);
-        if (Node mesh = v.child("geometry").child("mesh")) {
-          if (mesh.attr("filename").value_or("").empty()) mesh.fail("expected a filename attribute, got none");
-          attrNumbers(mesh, "scale", 3, false);
-        }
+        checkGeometry(v.child("geometry"));
       }
     links.push_back(l);
   }

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::xml {
@@ -100,6 +101,20 @@ TEST(Xml, ResolvePathAgainstTheSetupFolder) {
   EXPECT_EQ(resolvePath("/data/setups", "../models/m.osim"), "/data/models/m.osim");
   EXPECT_EQ(resolvePath("/data/setups", "./a//b.trc"), "/data/setups/a/b.trc");
   EXPECT_EQ(resolvePath("", "m.osim"), "m.osim");
+}
+
+// XML entity expansion is bounded (issue 21 part 4): tinyxml2 expands only XML's five entities and
+// character references, so a billion-laughs document's &lol9; stays the six characters it is
+// instead of 3 GB. Read in a child process limited to 256 MB more than the test uses, so that a
+// tinyxml2 that began expanding DTD entities fails this test instead of taking the machine's memory.
+TEST(XmlFuzz, EntityExpansionIsBounded) {
+  const std::string path = test::fixturePath("fixtures/billion-laughs.xml");
+  const test::LimitedRun run = test::runWithMemoryLimit([&] {
+    const auto doc = Document::load(path);
+    return doc->root().nameAttr() + "|" + doc->root().child("value").text();
+  });
+  EXPECT_EQ(run.outcome, "returned");
+  EXPECT_EQ(run.message, "&lol9;|&lol9;");
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "core/strings.hpp"
 #include "model/kinematics.hpp"
 #include "model/osim_reader.hpp"
+#include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::model {
@@ -130,6 +131,49 @@ TEST(Urdf, BadInputIsAOneLineErrorWithFileAndLine) {
   const std::string two_roots = errorOf(robot(""));
   EXPECT_NE(two_roots.find("urdfdom rejected the file"), std::string::npos) << two_roots;
   EXPECT_THROW(readUrdf("/nonexistent/robot.urdf"), InputError);
+}
+
+// Found by fuzzing (fuzz/, docs/fuzzing.md): urdfdom 3.0 leaks the shape it was reading when a
+// geometry attribute does not parse (LeakSanitizer on fixtures/fuzz/urdf/box-size-bang.urdf). The
+// reader now checks every attribute urdfdom reads, the way urdfdom reads it (a scalar is the whole
+// attribute, a vector is split on spaces only), so urdfdom never sees one it cannot parse.
+TEST(UrdfFuzz, GeometryAttributesUrdfdomCannotReadAreRefusedBeforeIt) {
+  const std::string path = test::fixturePath("fixtures/fuzz/urdf/box-size-bang.urdf");
+  try {
+    readUrdf(path);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":3: robot[leak]/link[base]/visual/geometry/box: attribute 'size': "
+                                            "expected a number, got '0.1!0.1'");
+  }
+  auto link = [](const std::string& geometry) {
+    return "<robot name=\"r\">\n<link name=\"a\"><visual><geometry>" + geometry + "</geometry></visual></link>\n</robot>\n";
+  };
+  // Each of these passed the old checks (or had none) and failed inside urdfdom's parseGeometry.
+  EXPECT_NE(errorOf(link("<sphere radius=\"0.1 \"/>")).find("attribute 'radius': expected a number, got '0.1 '"),
+            std::string::npos);
+  EXPECT_NE(errorOf(link("<box size=\"0.1\t0.1\t0.1\"/>")).find("attribute 'size': expected a number, got '0.1\t0.1\t0.1'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(link("<cylinder radius=\"0.1\"/>")).find("bad.urdf:2: robot[r]/link[a]/visual/geometry/cylinder: "
+                                                            "missing attribute 'length'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(link("<mesh filename=\"m.stl\" scale=\"1 1 0x1\"/>")).find("attribute 'scale': expected a number, got '0x1'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(link("<cone radius=\"1\"/>")).find("unknown geometry <cone> (expected box, cylinder, sphere or mesh)"),
+            std::string::npos);
+  // What urdfdom reads still reads.
+  const ModelPtr m = parseUrdf(link("<box size=\" 0.1  0.2 0.3 \"/>"), "ok.urdf");
+  ASSERT_EQ(m->ignored.size(), 1u);
+  EXPECT_EQ(m->ignored[0].type, "visual box");
+}
+
+// Entity expansion is bounded in urdfdom's own XML parser (TinyXML) as well: a billion-laughs
+// URDF is refused (TinyXML does not find the robot past the DTD) without expanding anything.
+TEST(UrdfFuzz, BillionLaughsIsRefusedWithoutExpanding) {
+  const std::string path = test::fixturePath("fixtures/fuzz/urdf/billion-laughs.urdf");
+  const test::LimitedRun run = test::runWithMemoryLimit([&] { return readUrdf(path)->name; });
+  EXPECT_EQ(run.outcome, "input error");
+  EXPECT_EQ(run.message, path + ": robot: urdfdom rejected the file: Could not find the 'robot' element in the xml file");
 }
 
 TEST(Urdf, WorldRootFloatingJointAndMimic) {
