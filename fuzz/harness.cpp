@@ -18,10 +18,13 @@ namespace fs = std::filesystem;
 namespace {
 
 // The folder of this process's input files, removed at exit (libFuzzer's -fork and -jobs run
-// several processes: each has its own folder).
+// several processes: each has its own folder). In /dev/shm when there is one: written and read
+// once per execution, the input on a disk-backed /tmp made the targets five times slower (250
+// against 1500 exec/s for the CSV reader on 2026-11-28), waiting on the disk.
 const fs::path& inputDir() {
   static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("kneesim-fuzz-" + std::to_string(::getpid()));
+    const fs::path base = ::access("/dev/shm", W_OK) == 0 ? fs::path("/dev/shm") : fs::temp_directory_path();
+    fs::path d = base / ("kneesim-fuzz-" + std::to_string(::getpid()));
     fs::create_directories(d);
     std::atexit([] {
       std::error_code ec;
