@@ -136,6 +136,30 @@ void checkGeometry(const Node& geometry) {
 
 const char* const kUrdfJointTypes = "revolute, continuous, prismatic, fixed or floating";
 
+/// The joints must make a tree of the links: one parent joint per link and no loop. urdfdom links
+/// parent and child links by shared pointers both ways, so a loop (a joint from a link to itself,
+/// or round a cycle) leaks the whole model when urdfdom rejects it; refused here first.
+void checkTree(const std::vector<Node>& joints) {
+  std::map<std::string, const Node*> parent_joint;  // child link -> its joint
+  for (const Node& j : joints) {
+    const std::string parent = *j.child("parent").attr("link"), child = *j.child("child").attr("link");
+    if (parent == child) j.fail("expected a joint between two links, got '" + child + "' as its parent and child");
+    const auto [it, inserted] = parent_joint.emplace(child, &j);
+    if (!inserted)
+      j.fail("link '" + child + "' is already the child of joint '" + it->second->nameAttr() +
+             "' (expected one parent joint per link)");
+  }
+  for (const auto& [link, joint] : parent_joint) {
+    std::string up = *joint->child("parent").attr("link");
+    for (size_t steps = 0; steps <= parent_joint.size(); ++steps) {
+      if (up == link) joint->fail("joint loop: link '" + link + "' is its own ancestor (expected a tree of links)");
+      const auto it = parent_joint.find(up);
+      if (it == parent_joint.end()) break;
+      up = *it->second->child("parent").attr("link");
+    }
+  }
+}
+
 /// Our own pass over the XML: everything urdfdom would reject with only a console message gets
 /// a file:line here. Returns link and joint elements in file order.
 void validateUrdf(const xml::Document& doc, std::vector<Node>& links, std::vector<Node>& joints) {
@@ -197,6 +221,7 @@ void validateUrdf(const xml::Document& doc, std::vector<Node>& links, std::vecto
   for (const Node& j : joints)
     if (Node mm = j.child("mimic"))
       if (!joint_names.count(*mm.attr("joint"))) mm.fail("unknown mimicked joint '" + *mm.attr("joint") + "'");
+  checkTree(joints);
 }
 
 Pose toPose(const urdf::Pose& p) {

@@ -12,6 +12,7 @@
 #include "core/strings.hpp"
 #include "model/kinematics.hpp"
 #include "model/osim_reader.hpp"
+#include "support/input_error.hpp"
 #include "support/memory_limit.hpp"
 #include "support/test_data.hpp"
 
@@ -165,6 +166,29 @@ TEST(UrdfFuzz, GeometryAttributesUrdfdomCannotReadAreRefusedBeforeIt) {
   const ModelPtr m = parseUrdf(link("<box size=\" 0.1  0.2 0.3 \"/>"), "ok.urdf");
   ASSERT_EQ(m->ignored.size(), 1u);
   EXPECT_EQ(m->ignored[0].type, "visual box");
+}
+
+// Found by fuzzing: urdfdom links parent and child links by shared pointers both ways, so a joint
+// loop leaks the whole model when urdfdom rejects it (LeakSanitizer on the fuzzer's input,
+// fixtures/fuzz/urdf/joint-loop.urdf: joint j_pri from l2 to l2). Loops and links with two parent
+// joints are refused before urdfdom sees them.
+TEST(UrdfFuzz, JointLoopsAreRefusedBeforeUrdfdom) {
+  const std::string path = test::fixturePath("fixtures/fuzz/urdf/joint-loop.urdf");
+  EXPECT_NE(test::inputErrorOf([&] { readUrdf(path); })
+                .find(path + ":49: robot[chain_urdf]/joint[j_pri]: expected a joint between two links, got 'l2' as "
+                             "its parent and child"),
+            std::string::npos);
+  auto joint = [](const char* name, const char* parent, const char* child) {
+    return std::string("<joint name=\"") + name + "\" type=\"fixed\"><parent link=\"" + parent + "\"/><child link=\"" + child +
+           "\"/></joint>\n";
+  };
+  const std::string three = "<robot name=\"r\">\n<link name=\"a\"/>\n<link name=\"b\"/>\n<link name=\"c\"/>\n";
+  EXPECT_NE(errorOf(three + joint("j1", "a", "b") + joint("j2", "b", "c") + joint("j3", "c", "b") + "</robot>\n")
+                .find("robot[r]/joint[j3]: link 'b' is already the child of joint 'j1' (expected one parent joint per link)"),
+            std::string::npos);
+  EXPECT_NE(errorOf(three + joint("j1", "b", "c") + joint("j2", "c", "b") + "</robot>\n")
+                .find("joint loop: link 'b' is its own ancestor (expected a tree of links)"),
+            std::string::npos);
 }
 
 // Entity expansion is bounded in urdfdom's own XML parser (TinyXML) as well: a billion-laughs
