@@ -37,7 +37,8 @@ std::string workflowAreaFile(const std::string& dir, const std::string& name) {
 // effect's channels, in a standalone diagnosis as in the workflow's own.
 void useWorkflowKneeLoads(TrialSource& t, const std::string& dir) {
   const fs::path f = fs::path(dir) / t.name / (t.name + "_knee_loads.sto");
-  if (t.knee_loads.empty() && fs::is_regular_file(f)) t.knee_loads = f.string();
+  std::error_code ec;  // a name too long for the system is not there either (not a filesystem_error)
+  if (t.knee_loads.empty() && fs::is_regular_file(f, ec)) t.knee_loads = f.string();
 }
 
 TrialSource readTrial(const xml::Node& t, const std::string& dir) {

@@ -71,7 +71,8 @@ void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out) {
 std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string& setup_dir) {
   if (auto file = set.attr("file"); file && !trim(*file).empty() && *file != "Unassigned") {
     const std::string task_path = xml::resolvePath(setup_dir, std::string(trim(*file)));
-    if (!fs::exists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
+    std::error_code ec;  // a name too long for the system is not found either (not a filesystem_error)
+    if (!fs::exists(task_path, ec)) set.fail("IKTaskSet file not found: " + task_path);
     return readTaskFile(task_path);
   }
   std::vector<TaskSpec> tasks;
@@ -80,7 +81,8 @@ std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string
 }
 
 std::vector<TaskSpec> readTaskFile(const std::string& path) {
-  if (!fs::exists(path)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
   auto doc = xml::Document::load(path);
   xml::Node root = doc->root();
   xml::Node set = root.name() == "IKTaskSet" ? root : root.child("IKTaskSet");
@@ -91,7 +93,8 @@ std::vector<TaskSpec> readTaskFile(const std::string& path) {
 }
 
 IkSetup readIkSetup(const std::string& path) {
-  if (!fs::exists(path)) throw InputError({path, 0, ""}, "setup file not found");
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError({path, 0, ""}, "setup file not found");
   auto doc = xml::Document::load(path);
   IkSetup s;
   s.setup_file = path;

@@ -40,7 +40,8 @@ BatchTrialSetup readBatchTrialSetup(const std::string& path) {
   const xml::Node files = tool.requireChild("setup_files");
   for (const std::string& f : files.toWords()) {
     const std::string p = xml::resolvePath(dir, f);
-    if (!fs::is_regular_file(p)) files.fail("setup file not found: " + p);
+    std::error_code ec;  // a name too long for the system is not found either (not a filesystem_error)
+    if (!fs::is_regular_file(p, ec)) files.fail("setup file not found: " + p);
     s.setup_files.push_back(p);
   }
   if (s.setup_files.empty()) files.fail("expected at least one setup file, got none");

@@ -46,6 +46,18 @@ TEST(BatchTrial, BadSetupsAreOneLineErrors) {
                 "setup_files, subject, trial)");
 }
 
+// Found by fuzzing (fuzz/, docs/fuzzing.md): a setup file whose name is longer than the system
+// allows made std::filesystem throw a filesystem_error ("File name too long") out of the reader
+// instead of the one-line "not found". The reproducer is the fuzzer's input.
+TEST(BatchTrialFuzz, ASetupFileNameTooLongIsNotFound) {
+  const std::string path = test::fixturePath("fixtures/fuzz/batch_trial/setup-file-name-too-long.xml");
+  const std::string msg = test::inputErrorOf([&] { readBatchTrialSetup(path); });
+  EXPECT_EQ(msg.rfind(path + ":1: ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("/setup_files: setup file not found: " + test::fixturePath("fixtures/fuzz/batch_trial/inpzzz")),
+            std::string::npos)
+      << msg;
+}
+
 TEST(BatchTrial, AFailureLeavesANoteAndNoMarker) {
   const std::string dir = test::scratchDir("batch_trial_fail");
   writeText(dir + "/t_ik.xml",
