@@ -28,7 +28,9 @@ std::shared_ptr<Model> OsimReader::read() {
   if (root.name() == "OpenSimDocument") {
     if (auto v = root.attr("Version")) {
       double d;
-      if (!tryParseDouble(*v, d)) root.fail("expected a numeric Version attribute, got '" + *v + "'");
+      // A number an int holds (converting inf or 1e10 to one is undefined behaviour).
+      if (!tryParseDouble(*v, d) || !(d >= 0 && d < 2147483648.0))
+        root.fail("expected a numeric Version attribute, got '" + *v + "'");
       m_->format_version = int(d);
     }
     model_el = root.requireChild("Model");

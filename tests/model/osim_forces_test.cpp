@@ -127,6 +127,23 @@ TEST(OsimForces, ReadsMusclesWrapObjectsAndActuators) {
   EXPECT_EQ(m->findMuscle("flexor"), 0);
 }
 
+// A PathWrap range beyond any int (1e10, inf, nan) was converted to one: undefined behaviour, seen
+// by UBSan the way fuzz_osim saw the Version attribute's (fixtures/fuzz/osim/wrap-range-1e10.osim
+// holds this model for the fuzz target's replay).
+TEST(OsimForcesFuzz, WrapRangesNoIntegerHoldsAreOneLineErrors) {
+  for (const std::string range : {"1 1e10", "-inf 2", "nan 1"}) {
+    std::string text = modelText(kThelen);
+    text.replace(text.find("<range>1 2</range>"), 18, "<range>" + range + "</range>");
+    EXPECT_NE(inputErrorOf([&] { parseOsim(text, "/tmp/bad.osim"); })
+                  .find("PathWrap/range: expected two point numbers (first last), got '" + range + "'"),
+              std::string::npos)
+        << range;
+  }
+  const std::string path = test::fixturePath("fixtures/fuzz/osim/wrap-range-1e10.osim");
+  EXPECT_NE(inputErrorOf([&] { readOsim(path); }).find("expected two point numbers (first last), got '1 1e10'"),
+            std::string::npos);
+}
+
 TEST(OsimForces, SchutteCurvesAreKeptByName) {
   const std::string schutte = R"(
 <Schutte1993Muscle_Deprecated name="s"><isDisabled>true</isDisabled>

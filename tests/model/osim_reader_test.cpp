@@ -363,6 +363,25 @@ TEST(OsimReader, MalformedXml) {
   EXPECT_TRUE(std::regex_search(e, std::regex("^bad\\.osim:[0-9]+: malformed XML"))) << e;
 }
 
+// Found by fuzzing (fuzz/, docs/fuzzing.md): a Version attribute of +infinity (or 1e10, -1) was
+// converted to an int, undefined behaviour (UBSan on the fuzzer's input,
+// fixtures/fuzz/osim/version-infinity.osim).
+TEST(OsimReaderFuzz, AVersionNoIntegerHoldsIsAOneLineError) {
+  const std::string path = test::fixturePath("fixtures/fuzz/osim/version-infinity.osim");
+  try {
+    readOsim(path);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":3: OpenSimDocument: expected a numeric Version attribute, got '+infinity'");
+  }
+  std::string text = model4(kPin);
+  for (const std::string v : {"1e10", "-1", "nan"}) {
+    std::string bad = text;
+    bad.replace(bad.find("40000"), 5, v);
+    EXPECT_EQ(errorOf(bad), "bad.osim:2: OpenSimDocument: expected a numeric Version attribute, got '" + v + "'");
+  }
+}
+
 // OpenSim 1.x's layout (opensim-core's DynamicsEngines/TestSimbodyEngine/pendulum2.osim): a bare
 // <Model> whose bodies and joints sit in <DynamicsEngine><SimbodyEngine>. One line naming it.
 TEST(OsimReader, DynamicsEngineLayoutOfOpenSim1IsNamed) {
