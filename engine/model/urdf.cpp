@@ -224,6 +224,27 @@ void validateUrdf(const xml::Document& doc, std::vector<Node>& links, std::vecto
   checkTree(joints);
 }
 
+/// urdfdom reads the file with its own XML parser (TinyXML), which reads some attribute values
+/// differently from tinyxml2 (it drops an '&' that starts no entity): every link and joint name
+/// validateUrdf checked must be what urdfdom read, or the two readings would not match up.
+[[noreturn]] void differs(const Node& n, const std::string& value) {
+  n.fail("urdfdom reads '" + value + "' differently (its XML parser drops an '&' that starts no entity): expected " +
+         "a name urdfdom reads as written");
+}
+
+void checkSameReading(const urdf::ModelInterface& u, const std::vector<Node>& links, const std::vector<Node>& joints) {
+  for (const Node& l : links)
+    if (!u.getLink(l.nameAttr())) differs(l, l.nameAttr());
+  for (const Node& j : joints) {
+    const urdf::JointConstSharedPtr uj = u.getJoint(j.nameAttr());
+    if (!uj) differs(j, j.nameAttr());
+    for (const auto& [role, link] : {std::pair{"parent", uj->parent_link_name}, std::pair{"child", uj->child_link_name}})
+      if (const std::string mine = *j.child(role).attr("link"); mine != link) differs(j.child(role), mine);
+    if (Node mm = j.child("mimic"); mm && (!uj->mimic || uj->mimic->joint_name != *mm.attr("joint")))
+      differs(mm, *mm.attr("joint"));
+  }
+}
+
 Pose toPose(const urdf::Pose& p) {
   Pose X = Pose::Identity();
   double x, y, z, w;
@@ -250,6 +271,7 @@ class UrdfReader {
     std::string messages;
     urdf::ModelInterfaceSharedPtr u = parseWithUrdfdom(text, messages);
     if (!u) throw InputError({label_, 0, "robot"}, "urdfdom rejected the file: " + (messages.empty() ? "no reason given" : messages));
+    checkSameReading(*u, link_nodes, joint_nodes);
     m_->name = u->getName();
     m_->source_file = label_;
     m_->format_version = 0;

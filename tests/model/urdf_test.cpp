@@ -191,6 +191,28 @@ TEST(UrdfFuzz, JointLoopsAreRefusedBeforeUrdfdom) {
             std::string::npos);
 }
 
+// Found by fuzzing: urdfdom's XML parser (TinyXML) drops an '&' that starts no entity, tinyxml2
+// keeps it, so the link the checks knew as 'n&ertial' was not in urdfdom's model and the reader
+// dereferenced a null link (UBSan on fixtures/fuzz/urdf/link-name-ampersand.urdf). Every name is
+// now compared with what urdfdom read.
+TEST(UrdfFuzz, NamesUrdfdomReadsDifferentlyAreOneLineErrors) {
+  const std::string path = test::fixturePath("fixtures/fuzz/urdf/link-name-ampersand.urdf");
+  const std::string msg = test::inputErrorOf([&] { readUrdf(path); });
+  EXPECT_EQ(msg.rfind(path + ":5: ", 0), 0u) << msg;
+  EXPECT_NE(msg.find(": urdfdom reads 'l1*>    n&ertial>' differently (its XML parser drops an '&' that starts no "
+                     "entity): expected a name urdfdom reads as written"),
+            std::string::npos)
+      << msg;
+  EXPECT_NE(errorOf(robot("<joint name=\"j&k\" type=\"fixed\"><parent link=\"a\"/><child link=\"b\"/></joint>\n"))
+                .find("bad.urdf:4: robot[r]/joint[j&k]: urdfdom reads 'j&k' differently"),
+            std::string::npos);
+  EXPECT_NE(errorOf("<robot name=\"r\">\n<link name=\"a\"/>\n<link name=\"b&c\"/>\n<link name=\"bc\"/>\n"
+                    "<joint name=\"j\" type=\"fixed\"><parent link=\"a\"/><child link=\"b&c\"/></joint>\n</robot>\n")
+                .find("urdfdom rejected the file"),
+            std::string::npos)
+      << "urdfdom reads two links named 'bc'";
+}
+
 // Entity expansion is bounded in urdfdom's own XML parser (TinyXML) as well: a billion-laughs
 // URDF is refused (TinyXML does not find the robot past the DTD) without expanding anything.
 TEST(UrdfFuzz, BillionLaughsIsRefusedWithoutExpanding) {
