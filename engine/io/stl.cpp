@@ -85,7 +85,11 @@ void parseAscii(const std::string& path, const std::string& text, TriangleMesh& 
     }
     if (w.size() != 4) throw InputError({path, line_no, ""}, "expected 'vertex x y z'");
     const SourceLocation at{path, line_no, ""};
-    pending.push_back(weld.add(parseDouble(w[1], at), parseDouble(w[2], at), parseDouble(w[3], at)));
+    const double x = parseDouble(w[1], at), y = parseDouble(w[2], at), z = parseDouble(w[3], at);
+    // As in binary files: a NaN or infinite vertex would pass the size check (NaN compares false).
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+      throw InputError(at, "expected a vertex of finite numbers, got '" + std::string(trim(line)) + "'");
+    pending.push_back(weld.add(x, y, z));
     if (pending.size() == 3) {
       mesh.triangles.emplace_back(pending[0], pending[1], pending[2]);
       pending.clear();

@@ -84,6 +84,22 @@ TEST(Stl, JwImplantIsClosedAndInMetres) {
   EXPECT_EQ(fem.calcEdgeReport().pinched, 2);
 }
 
+// An ASCII vertex of NaN or inf was read (binary files refused it): the mesh's extent was NaN, which
+// passes the size check, and NaN vertices went on to the distance queries.
+TEST(Stl, AsciiVerticesMustBeFinite) {
+  const std::string dir = test::scratchDir("stl_nan");
+  for (const std::string bad : {"nan", "inf", "-Infinity"}) {
+    std::ofstream(dir + "/n.stl") << "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 " << bad
+                                  << " 0\nendloop\nendfacet\nendsolid t\n";
+    try {
+      readStl(dir + "/n.stl");
+      ADD_FAILURE() << bad << ": no error";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), dir + "/n.stl:6: expected a vertex of finite numbers, got 'vertex 0 " + bad + " 0'");
+    }
+  }
+}
+
 // A binary STL whose triangle count says 10^9 over one triangle (134 bytes) is refused by the
 // count's check against the file size, before anything is allocated for the triangles (issue 21
 // part 4): checked in a child process limited to 256 MB more than the test uses.
