@@ -62,10 +62,12 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   if (xml::Node n = h.child("flexion_range_deg")) {
     ++sources;
     const std::vector<double> r = n.toDoubles();
-    if (r.size() != 3 || !(r[2] > 0) || r[1] < r[0])
+    if (r.size() != 3 || !(r[2] > 0) || !(r[1] >= r[0]) || !std::isfinite(r[0]) || !std::isfinite(r[1]))
       n.fail("expected 'first last step' in degrees with step > 0 and last >= first, got '" + n.text() + "'");
-    const int count = int(std::floor((r[1] - r[0]) / r[2] + 1e-9)) + 1;
-    if (count > 1000000) n.fail("expected at most 1000000 frames, got " + std::to_string(count));
+    // Counted in double: the frame count of '0 1e300 1e-300' is no int (converting it is undefined).
+    const double frames = std::floor((r[1] - r[0]) / r[2] + 1e-9) + 1;
+    if (!(frames <= 1000000)) n.fail("expected at most 1000000 frames, got " + formatSignificant(frames, 6));
+    const int count = int(frames);
     for (int k = 0; k < count; ++k) s.flexion.push_back((r[0] + k * r[2]) * kDegree);
   }
   if (xml::Node n = h.child("flexion_file")) {

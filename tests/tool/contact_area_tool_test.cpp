@@ -13,6 +13,7 @@
 #include "io/knee_forces.hpp"
 #include "io/storage.hpp"
 #include "model/osim_reader.hpp"
+#include "support/input_error.hpp"
 #include "support/test_data.hpp"
 #include "tool/contact_area_tool.hpp"
 #include "tool/run.hpp"
@@ -171,6 +172,28 @@ TEST(ContactAreaTool, BadInputsAreOneLineErrors) {
   expectError(dir, replace(hinge, "SOURCE", "<knee_forces_file>forces.csv</knee_forces_file>"), "no goniometer column GON");
   expectError(dir, replace(hinge, "SOURCE", "<flexion_range_deg>10 0 1</flexion_range_deg>"), "last >= first");
   expectError(dir, replace(hinge, "SOURCE", ""), "exactly one flexion source");
+}
+
+// Found by fuzzing (fuzz/, docs/fuzzing.md): a flexion range of '5 nan 1' passed the checks (NaN
+// compares false) and its frame count, NaN, was converted to an int -- undefined behaviour (UBSan on
+// fixtures/fuzz/contact_area_setup/flexion-range-nan.xml); so was the count of '0 1e300 1e-300'.
+TEST(ContactAreaToolFuzz, FlexionRangesWithoutAnIntegerCountAreOneLineErrors) {
+  const std::string path = test::fixturePath("fixtures/fuzz/contact_area_setup/flexion-range-nan.xml");
+  EXPECT_NE(test::inputErrorOf([&] { readContactAreaSetup(path); })
+                .find("flexion_range_deg: expected 'first last step' in degrees with step > 0 and last >= first, got "
+                      "'5 nan 1'"),
+            std::string::npos);
+  const std::string dir = test::scratchDir("cat_fuzz");
+  const std::string hinge =
+      "<ContactAreaTool><femoral_component_file>ball.stl</femoral_component_file><insert_file>flat_insert.stl"
+      "</insert_file><HingeKinematics><flexion_range_deg>RANGE</flexion_range_deg></HingeKinematics></ContactAreaTool>";
+  for (const auto& [range, phrase] : {std::pair{"0 1e300 1e-300", "expected at most 1000000 frames, got inf"},
+                                      std::pair{"0 1e10 1", "expected at most 1000000 frames, got 1e+10"},
+                                      std::pair{"-inf 0 1", "last >= first, got '-inf 0 1'"}}) {
+    writeText(dir + "/bad.xml", replace(hinge, "RANGE", range));
+    const std::string msg = test::inputErrorOf([&] { readContactAreaSetup(dir + "/bad.xml"); });
+    EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
+  }
 }
 
 // calcModelKinematics from a motion in memory: a coordinate coupled to one the motion has follows
