@@ -39,6 +39,13 @@ double finiteChild(const xml::Node& node, const char* tag, double fallback, cons
   return v;
 }
 
+// A count >= 1 that an int holds (converting 1e43 to an int is undefined behaviour).
+int countChild(const xml::Node& node, const char* tag, int fallback, const char* expected) {
+  const double v = finiteChild(node, tag, fallback, expected);
+  if (!(v >= 1 && v < 2147483648.0)) node.child(tag).fail(std::string("expected ") + expected + ", got " + node.childText(tag));
+  return int(v);
+}
+
 void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   xml::checkChildren(so, {"on", "start_time", "end_time", "step_interval", "in_degrees", "use_model_force_set",
                           "activation_exponent", "use_muscle_physiology", "optimizer_convergence_criterion",
@@ -48,8 +55,7 @@ void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   if (!so.nameAttr().empty()) s.so_name = so.nameAttr();
   s.so_start = finiteChild(so, "start_time", s.so_start, "a time in s");
   s.so_end = finiteChild(so, "end_time", s.so_end, "a time in s");
-  s.step_interval = int(finiteChild(so, "step_interval", 1, "a positive integer"));
-  if (s.step_interval < 1) so.child("step_interval").fail("expected a positive integer, got " + so.childText("step_interval"));
+  s.step_interval = countChild(so, "step_interval", 1, "a positive integer");
   if (!so.childBool("use_model_force_set", true))
     so.child("use_model_force_set").fail("expected true (kneesim optimises the model's own actuators), got false");
   s.so.activation_exponent = finiteChild(so, "activation_exponent", 2.0, "an exponent >= 1");
@@ -59,9 +65,7 @@ void readStaticOptimization(const xml::Node& so, AnalyzeSetup& s) {
   s.so.convergence = finiteChild(so, "optimizer_convergence_criterion", 1e-4, "a positive tolerance");
   if (!(s.so.convergence > 0))
     so.child("optimizer_convergence_criterion").fail("expected a positive tolerance, got " + so.childText("optimizer_convergence_criterion"));
-  s.so.max_iterations = int(finiteChild(so, "optimizer_max_iterations", 100, "a positive count"));
-  if (s.so.max_iterations < 1)
-    so.child("optimizer_max_iterations").fail("expected a positive count, got " + so.childText("optimizer_max_iterations"));
+  s.so.max_iterations = countChild(so, "optimizer_max_iterations", 100, "a positive count");
   // kneesim's own element: the optimum (exact, the default) or OpenSim's optimizer and its answers.
   const std::string optimizer = so.childText("kneesim_optimizer", "exact");
   if (optimizer != "exact" && optimizer != "opensim")

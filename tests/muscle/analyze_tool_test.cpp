@@ -235,4 +235,35 @@ TEST(AnalyzeTool, SetupErrorsAreOneLine) {
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
 }
 
+// Found by fuzzing (fuzz/, docs/fuzzing.md): a step_interval of 1e43 was converted to an int,
+// undefined behaviour (UBSan on the fuzzer's input, fixtures/fuzz/analyze_setup/step-interval-1e43.xml).
+TEST(AnalyzeToolFuzz, CountsNoIntegerHoldsAreOneLineErrors) {
+  const std::string path = test::fixturePath("fixtures/fuzz/analyze_setup/step-interval-1e43.xml");
+  try {
+    muscle::readAnalyzeSetup(path);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("/step_interval: expected a positive integer, got 10000000000000000000000000000000000000000000"),
+              std::string::npos)
+        << msg;
+  }
+  const std::string dir = test::scratchDir("so_setup_counts");
+  for (const auto& [element, expected] : {std::pair{"step_interval", "a positive integer"},
+                                          std::pair{"optimizer_max_iterations", "a positive count"}})
+    for (const std::string value : {"1e10", "-3", "0"}) {
+      std::ofstream(dir + "/setup.xml")
+          << "<OpenSimDocument Version=\"30000\"><AnalyzeTool name=\"x\">\n<model_file>m.osim</model_file>\n"
+             "<coordinates_file>c.mot</coordinates_file>\n<AnalysisSet><objects>\n<StaticOptimization><" << element << ">" << value << "</" << element
+          << "></StaticOptimization>\n</objects></AnalysisSet></AnalyzeTool></OpenSimDocument>\n";
+      try {
+        muscle::readAnalyzeSetup(dir + "/setup.xml");
+        ADD_FAILURE() << element << " " << value << ": no error";
+      } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()), dir + "/setup.xml:5: OpenSimDocument/AnalyzeTool[x]/AnalysisSet/objects/"
+                                               "StaticOptimization/" + element + ": expected " + expected + ", got " + value);
+      }
+    }
+}
+
 }  // namespace
