@@ -5,7 +5,7 @@
 # libFuzzer/sanitizer runtimes build the fuzz tree the test suite runs (docs/fuzzing.md).
 set -eu
 PKGS="build-essential cmake pkg-config git
-      libsimbody-dev libeigen3-dev libfcl-dev coinor-libipopt-dev liburdfdom-dev
+      libsimbody-dev libeigen3-dev libfcl-dev coinor-libipopt-dev liburdfdom-dev libtinyxml-dev
       libtinyxml2-dev libcli11-dev nlohmann-json3-dev libcpptoml-dev
       libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
       pybind11-dev python3-dev python3-pytest python3-numpy
