@@ -31,6 +31,9 @@ double parseDouble(std::string_view s, const SourceLocation& where);
 long parseInt(std::string_view s, const SourceLocation& where);
 /// Parses "true"/"false" (any case) or throws InputError at @p where.
 bool parseBool(std::string_view s, const SourceLocation& where);
+/// True when @p v converts to an int (truncated): converting NaN, inf or 1e10 is undefined behaviour,
+/// so a reader checks a number from a file with this before the conversion.
+inline bool truncatesToInt(double v) { return v > -2147483649.0 && v < 2147483648.0; }
 
 /// @p v with @p digits significant digits, as an ostream with that precision prints it ("0.25",
 /// "1.5e+06", "nan"): for messages and reports.

@@ -120,7 +120,7 @@ void readFrame(const TrcLines& in, const TrcHeader& h, const std::vector<std::st
   const double nan = std::numeric_limits<double>::quiet_NaN();
   double v;
   // A frame number is a whole number an int holds (converting 1e10 or inf is undefined behaviour).
-  if (!detail::parseNumber(cells[0], v) || v != std::floor(v) || !(std::fabs(v) <= 2147483647.0))
+  if (!detail::parseNumber(cells[0], v) || v != std::floor(v) || !truncatesToInt(v))
     throw InputError(in.at("Frame#"), "expected a frame number, got " + detail::quoteForMessage(cells[0]));
   table.frame_numbers.push_back(int(v));
   if (!detail::parseNumber(cells[1], v) || !std::isfinite(v))

@@ -205,7 +205,7 @@ class ForceReader {
       if (Node r = w.child("range"); r && !r.text().empty()) {
         const std::vector<double> v = r.toDoubles();
         // Point numbers an int holds (converting 1e10 or inf to one is undefined behaviour).
-        if (v.size() != 2 || !(std::fabs(v[0]) < 2147483648.0 && std::fabs(v[1]) < 2147483648.0))
+        if (v.size() != 2 || !truncatesToInt(v[0]) || !truncatesToInt(v[1]))
           r.fail("expected two point numbers (first last), got '" + r.text() + "'");
         pw.range_begin = int(v[0]);
         pw.range_end = int(v[1]);

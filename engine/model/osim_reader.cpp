@@ -29,7 +29,7 @@ std::shared_ptr<Model> OsimReader::read() {
     if (auto v = root.attr("Version")) {
       double d;
       // A number an int holds (converting inf or 1e10 to one is undefined behaviour).
-      if (!tryParseDouble(*v, d) || !(d >= 0 && d < 2147483648.0))
+      if (!tryParseDouble(*v, d) || !(d >= 0 && truncatesToInt(d)))
         root.fail("expected a numeric Version attribute, got '" + *v + "'");
       m_->format_version = int(d);
     }

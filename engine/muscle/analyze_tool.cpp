@@ -42,7 +42,7 @@ double finiteChild(const xml::Node& node, const char* tag, double fallback, cons
 // A count >= 1 that an int holds (converting 1e43 to an int is undefined behaviour).
 int countChild(const xml::Node& node, const char* tag, int fallback, const char* expected) {
   const double v = finiteChild(node, tag, fallback, expected);
-  if (!(v >= 1 && v < 2147483648.0)) node.child(tag).fail(std::string("expected ") + expected + ", got " + node.childText(tag));
+  if (!(v >= 1 && truncatesToInt(v))) node.child(tag).fail(std::string("expected ") + expected + ", got " + node.childText(tag));
   return int(v);
 }
 
