@@ -1,5 +1,6 @@
 #include "core/xml.hpp"
 
+#include <cmath>
 #include <filesystem>
 
 #include <tinyxml2.h>
@@ -51,6 +52,12 @@ std::string Node::text() const {
 
 double Node::toDouble() const { return parseDouble(text(), where()); }
 long Node::toInt() const { return parseInt(text(), where()); }
+int Node::toIntIn(int lo, int hi) const {
+  const long v = toInt();
+  if (v < lo || v > hi)
+    fail("expected an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got '" + text() + "'");
+  return static_cast<int>(v);
+}
 bool Node::toBool() const { return parseBool(text(), where()); }
 
 std::vector<double> Node::toDoubles() const {
@@ -71,6 +78,20 @@ std::vector<std::string> Node::toWords() const {
   std::vector<std::string> out;
   const std::string t = text();
   for (auto w : splitWhitespace(t)) out.emplace_back(w);
+  return out;
+}
+
+std::vector<double> Node::toStepRange(int max_count) const {
+  const std::vector<double> r = toDoubles();
+  if (r.size() != 3 || !(r[2] > 0) || !(r[1] >= r[0]) || !std::isfinite(r[0]) || !std::isfinite(r[1]))
+    fail("expected 'first last step' with step > 0 and last >= first, got '" + text() + "'");
+  // Counted in double: the count of '0 1e300 1e-300' is no int (converting it is undefined).
+  const double count = std::floor((r[1] - r[0]) / r[2] + 1e-9) + 1;
+  if (!(count <= max_count))
+    fail("expected at most " + std::to_string(max_count) + " values, got " + formatSignificant(count, 6) + " ('" +
+         text() + "')");
+  std::vector<double> out(static_cast<size_t>(count));
+  for (size_t k = 0; k < out.size(); ++k) out[k] = r[0] + double(k) * r[2];  // no accumulated rounding
   return out;
 }
 

@@ -49,6 +49,9 @@ class Node {
   double toDouble() const;
   /// Text as integer.
   long toInt() const;
+  /// Text as an integer from @p lo to @p hi; throws "expected an integer from lo to hi, got '...'"
+  /// otherwise (a setting narrowed to int is checked here, not wrapped beyond 2^31).
+  int toIntIn(int lo, int hi) const;
   /// Text as "true"/"false".
   bool toBool() const;
   /// Text as whitespace-separated numbers.
@@ -57,6 +60,9 @@ class Node {
   Eigen::Vector3d toVec3() const;
   /// Text as whitespace-separated words.
   std::vector<std::string> toWords() const;
+  /// Text 'first last step' (finite, step > 0, last >= first) as the values first, first + step,
+  /// ... up to last; throws when they would be more than @p max_count (counted before any is made).
+  std::vector<double> toStepRange(int max_count) const;
 
   /// Child text helpers: return @p fallback when the child is absent or empty.
   double childDouble(const char* tag, double fallback) const;

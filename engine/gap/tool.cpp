@@ -1,6 +1,7 @@
 #include "gap/tool.hpp"
 
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "core/strings.hpp"
@@ -130,9 +131,7 @@ GapSetup readGapSetup(const std::string& path) {
   auto integer = [&](const char* tag, int fallback, int lo) {
     xml::Node n = tool.child(tag);
     if (!n || n.text().empty()) return fallback;
-    const long v = n.toInt();
-    if (v < lo) n.fail("expected an integer >= " + std::to_string(lo) + ", got " + n.text());
-    return static_cast<int>(v);
+    return n.toIntIn(lo, std::numeric_limits<int>::max());
   };
   auto fraction = [&](const char* tag, double fallback) {
     xml::Node n = tool.child(tag);

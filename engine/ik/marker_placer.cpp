@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -337,9 +338,7 @@ MarkerPlacerSetup readMarkerPlacerSetup(const std::string& path) {
       t.time_end = v[1];
     }
     if (xml::Node st = n.child("frame_stride")) {
-      const long k = st.toInt();
-      if (k < 1) st.fail("expected a stride >= 1, got " + st.text());
-      t.frame_stride = int(k);
+      t.frame_stride = st.toIntIn(1, std::numeric_limits<int>::max());
     }
     t.weight = n.childDouble("weight", 1.0);
     if (!(t.weight > 0) || !std::isfinite(t.weight)) n.child("weight").fail("expected a weight > 0");
@@ -375,7 +374,7 @@ MarkerPlacerSetup readMarkerPlacerSetup(const std::string& path) {
   if (!(s.options.prior_weight >= 0)) tool.child("prior_weight").fail("expected a weight >= 0");
   const double mm = tool.childDouble("max_marker_movement", -1.0);  // OpenSim: -1 means unbounded
   s.options.max_marker_movement = mm < 0 ? kInf : mm;
-  s.options.max_iterations = int(tool.child("max_iterations") ? tool.child("max_iterations").toInt() : 20);
+  s.options.max_iterations = tool.child("max_iterations") ? tool.child("max_iterations").toIntIn(1, 100000) : 20;
   if (s.options.max_iterations < 1) tool.child("max_iterations").fail("expected at least 1 iteration");
   s.options.tolerance = tool.childDouble("tolerance", 1e-5);
   const double accuracy = tool.childDouble("accuracy", 1e-5);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <ostream>
 #include <set>
 #include <sstream>
@@ -149,8 +150,7 @@ IkSetup readIkSetup(const std::string& path) {
   // converged when the remaining Gauss-Newton step is below it (rad or m, or m of marker motion).
   s.solver.step_tolerance = s.accuracy;
   if (xml::Node mi = tool.child("max_iterations")) {
-    s.solver.max_iterations = int(mi.toInt());
-    if (s.solver.max_iterations < 1) mi.fail("expected max_iterations >= 1, got " + mi.text());
+    s.solver.max_iterations = mi.toIntIn(1, std::numeric_limits<int>::max());
   }
   if (xml::Node tr = tool.child("time_range"); tr && !tr.text().empty()) {
     const auto v = tr.toDoubles();

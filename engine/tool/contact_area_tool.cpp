@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "contact/contact_output.hpp"
@@ -61,14 +62,7 @@ HingeKinematicsSpec readHinge(const xml::Node& h, const std::string& dir) {
   }
   if (xml::Node n = h.child("flexion_range_deg")) {
     ++sources;
-    const std::vector<double> r = n.toDoubles();
-    if (r.size() != 3 || !(r[2] > 0) || !(r[1] >= r[0]) || !std::isfinite(r[0]) || !std::isfinite(r[1]))
-      n.fail("expected 'first last step' in degrees with step > 0 and last >= first, got '" + n.text() + "'");
-    // Counted in double: the frame count of '0 1e300 1e-300' is no int (converting it is undefined).
-    const double frames = std::floor((r[1] - r[0]) / r[2] + 1e-9) + 1;
-    if (!(frames <= 1000000)) n.fail("expected at most 1000000 frames, got " + formatSignificant(frames, 6));
-    const int count = int(frames);
-    for (int k = 0; k < count; ++k) s.flexion.push_back((r[0] + k * r[2]) * kDegree);
+    for (double v : n.toStepRange(1000000)) s.flexion.push_back(v * kDegree);
   }
   if (xml::Node n = h.child("flexion_file")) {
     ++sources;
@@ -425,9 +419,7 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
   s.output_file = xml::resolvePath(s.results_directory, out);
   s.write_vtp = tool.childBool("write_vtp", false);
   if (xml::Node n = tool.child("vtp_every")) {
-    const long e = n.toInt();
-    if (e < 1) n.fail("expected vtp_every >= 1, got " + n.text());
-    s.vtp_every = int(e);
+    s.vtp_every = n.toIntIn(1, std::numeric_limits<int>::max());
   }
   s.vtp_femur = tool.childBool("vtp_femur", true);
   if (xml::Node n = tool.child("hinge_file")) s.hinge_file = xml::resolvePath(s.results_directory, n.text());

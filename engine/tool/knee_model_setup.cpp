@@ -69,10 +69,8 @@ KneeModelSetup readKneeModelSetup(const std::string& path) {
   s.path_file = xml::resolvePath(file.dir, tool.childText("path_file"));
   s.neutral_flexion = tool.childDouble("neutral_flexion", 0.0) * kDeg;
   if (xml::Node k = tool.child("flexion_knots")) {
-    const std::vector<double> v = k.toDoubles();
-    if (v.size() != 3 || !(v[2] > 0) || !(v[1] > v[0]))
-      k.fail("expected 'first last step' in degrees (first < last, step > 0), got '" + k.text() + "'");
-    for (double d = v[0]; d <= v[1] + 1e-9; d += v[2]) s.flexion_knots.push_back(d * kDeg);
+    // Each knot is a seating solve: a thousand (0.16 deg apart over the path) is far past useful.
+    for (double d : k.toStepRange(1000)) s.flexion_knots.push_back(d * kDeg);
   } else {
     for (int d = -20; d <= 140; d += 5) s.flexion_knots.push_back(d * kDeg);
   }

@@ -41,6 +41,44 @@ TEST(Xml, ElementPathAndTypedReads) {
   EXPECT_THROW(body.requireChild("inertia"), InputError);
 }
 
+// 'first last step': the values are first + k step (not accumulated: 0.1 ten times is not 1.0, and
+// the last value must still be there), and the count is checked before anything is made.
+TEST(Xml, StepRangeValuesAndBounds) {
+  auto doc = Document::parse("<r><a>0 1 0.1</a><b>-20 140 5</b><c>3 3 1</c><d>0 1e300 1e-300</d>"
+                             "<e>1 0 1</e><f>0 nan 1</f><g>0 1 0</g><h>0 1</h></r>",
+                             "r.xml");
+  const std::vector<double> a = doc->root().child("a").toStepRange(100);
+  ASSERT_EQ(a.size(), 11u);
+  EXPECT_EQ(a[3], 3 * 0.1);
+  EXPECT_DOUBLE_EQ(a[10], 1.0);
+  const std::vector<double> b = doc->root().child("b").toStepRange(33);
+  ASSERT_EQ(b.size(), 33u);
+  EXPECT_EQ(b.front(), -20.0);
+  EXPECT_EQ(b.back(), 140.0);
+  EXPECT_EQ(doc->root().child("c").toStepRange(1), std::vector<double>{3.0});
+  try {
+    doc->root().child("b").toStepRange(32);
+    FAIL() << "33 values passed a limit of 32";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "r.xml:1: r/b: expected at most 32 values, got 33 ('-20 140 5')");
+  }
+  for (const char* tag : {"d", "e", "f", "g", "h"}) EXPECT_THROW(doc->root().child(tag).toStepRange(1000000), InputError) << tag;
+}
+
+// An integer setting narrowed to int is range-checked first: 2^32 + 5 would wrap to 5.
+TEST(Xml, IntInRangeRefusesWhatWouldWrap) {
+  auto doc = Document::parse("<r><a>7</a><b>4294967301</b><c>0</c><d>7.5</d></r>", "r.xml");
+  EXPECT_EQ(doc->root().child("a").toIntIn(1, 10), 7);
+  try {
+    doc->root().child("b").toIntIn(1, 2147483647);
+    FAIL() << "2^32 + 5 passed";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "r.xml:1: r/b: expected an integer from 1 to 2147483647, got '4294967301'");
+  }
+  EXPECT_THROW(doc->root().child("c").toIntIn(1, 10), InputError);
+  EXPECT_THROW(doc->root().child("d").toIntIn(1, 10), InputError);
+}
+
 TEST(Xml, SetupElementAsRootOrInsideOpenSimDocument) {
   auto bare = Document::parse("<MyTool name=\"t\"/>", "a.xml");
   EXPECT_EQ(requireSetupElement(*bare, "MyTool").nameAttr(), "t");

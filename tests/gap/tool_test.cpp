@@ -85,11 +85,14 @@ TEST(GapTool, SetupErrorsNameTheFileAndElement) {
   expectError("<GapTool><alpha>2</alpha><trials/></GapTool>", "expected a value in (0, 1), got 2");
   expectError("<GapTool><prewhiten_order>12</prewhiten_order><trials/></GapTool>",
               "expected -1 (by BIC), 0 (none) or an order up to 10, got 12");
-  expectError("<GapTool><prewhiten_order>-2</prewhiten_order><trials/></GapTool>", "expected an integer >= -1, got -2");
+  expectError("<GapTool><prewhiten_order>-2</prewhiten_order><trials/></GapTool>", "expected an integer from -1 to 2147483647, got '-2'");
   expectError("<GapTool><targets>total patellar</targets><trials/></GapTool>",
               "targets: expected total, medial or lateral, got 'patellar'");
   expectError("<GapTool><cv_folds>1</cv_folds><trials/></GapTool>",
               "cv_folds: expected 0 (leave one cycle out) or at least 2 folds, got 1");
+  // 2^32 + 2 once wrapped to 2 folds when narrowed to int; it is refused.
+  expectError("<GapTool><cv_folds>4294967298</cv_folds><trials/></GapTool>",
+              "cv_folds: expected an integer from 0 to 2147483647, got '4294967298'");
   expectError("<GapTool><assumed_values>nu</assumed_values><trials/></GapTool>", "expected pairs of a parameter name");
   expectError("<GapTool><trials><Trial name='a'><knee_forces>x.csv</knee_forces></Trial></trials></GapTool>",
               "missing <contact_area> (the contact-area tool's .sto for this trial) and no <workflow_results>");

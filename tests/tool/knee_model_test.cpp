@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "core/error.hpp"
+#include "support/input_error.hpp"
 #include "support/test_data.hpp"
 
 namespace kneesim::tool {
@@ -73,6 +74,14 @@ TEST(KneeModelSetup, BadSetupsGiveOneLineErrors) {
   expectError(ok + "<flexion_knots>5 40 5</flexion_knots>", "including 0");
   expectError(ok + "<neutral_flexion>7</neutral_flexion>", "neutral flexion");
   expectError(ok + "<flexion_knots>0 10</flexion_knots>", "first last step");
+  // Found by fuzzing (fixtures/fuzz/knee_model_setup/): a step of 5e-320 deg asked for 3e321 knots,
+  // pushed one by one until the memory ran out; an infinite last knot never ended the loop.
+  EXPECT_NE(test::inputErrorOf([] {
+              readKneeModelSetup(test::fixturePath("fixtures/fuzz/knee_model_setup/knot-step-denormal.xml"));
+            }).find("knot-step-denormal.xml:10: KneeModelTool[jw_knee24]/flexion_knots: expected at most 1000 values, got inf"),
+            std::string::npos);
+  expectError(ok + "<flexion_knots>-20 inf 5</flexion_knots>", "last >= first, got '-20 inf 5'");
+  expectError(ok + "<flexion_knots>0 1000 0.5</flexion_knots>", "expected at most 1000 values, got 2001");
   expectError(ok + "<MarkerSet><Marker name=\"A\"><body>shin</body></Marker></MarkerSet>", "unknown body 'shin'");
   expectError(ok + "<MarkerSet><Marker name=\"A\"><body>femur</body></Marker><Marker name=\"A\"><body>femur</body></Marker></MarkerSet>",
               "duplicate marker 'A'");
