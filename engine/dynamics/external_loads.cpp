@@ -5,6 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 
@@ -55,7 +56,7 @@ ExternalForceSpec readExternalForce(const xml::Node& f) {
 }  // namespace
 
 ExternalLoadsSpec readExternalLoads(const std::string& path) {
-  if (!fs::exists(path)) throw InputError({path, 0, ""}, "ExternalLoads file not found");
+  if (!pathExists(path)) throw InputError({path, 0, ""}, "ExternalLoads file not found");
   auto doc = xml::Document::load(path);
   const xml::Node root = doc->root();
   const xml::Node el = root.name() == "ExternalLoads" ? root : root.child("ExternalLoads");
@@ -133,7 +134,7 @@ int findBodyOrFail(const model::Model& model, const ExternalForceSpec& f, const 
 
 ExternalLoads::ExternalLoads(const ExternalLoadsSpec& spec, const model::Model& model)
     : ExternalLoads(spec, model, [&] {
-        if (!fs::exists(spec.datafile)) throw InputError(spec.datafile_where, "force data file not found: " + spec.datafile);
+        if (!pathExists(spec.datafile)) throw InputError(spec.datafile_where, "force data file not found: " + spec.datafile);
         return io::readStorage(spec.datafile);
       }()) {}
 

@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <set>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "model/read_model.hpp"
@@ -73,7 +74,7 @@ void readForcePlates(const xml::Node& fp, const std::string& dir, IdSetup& s) {
 }  // namespace
 
 IdSetup readIdSetup(const std::string& path) {
-  if (!fs::exists(path)) throw InputError({path, 0, ""}, "setup file not found");
+  if (!pathExists(path)) throw InputError({path, 0, ""}, "setup file not found");
   auto doc = xml::Document::load(path);
   const xml::Node tool = xml::requireSetupElement(*doc, "InverseDynamicsTool");
   IdSetup s;
@@ -150,7 +151,7 @@ namespace {
 double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
 
 model::ModelPtr loadModel(const IdSetup& setup) {
-  if (!fs::exists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
+  if (!pathExists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
   return model::readModel(setup.model_file);
 }
 
@@ -202,13 +203,13 @@ std::vector<JointLoadRequest> resolveJointLoads(const IdSetup& setup, const mode
 std::unique_ptr<ExternalLoads> readLoads(const IdSetup& setup, const model::Model& m,
                                          std::unique_ptr<GroundReactions>& plates, IdReport& report) {
   if (!setup.plates_c3d_file.empty()) {
-    if (!fs::exists(setup.plates_c3d_file))
+    if (!pathExists(setup.plates_c3d_file))
       throw InputError(setup.locate("ForcePlates"), "C3D file not found: " + setup.plates_c3d_file);
     plates = std::make_unique<GroundReactions>(calcGroundReactions(io::readC3d(setup.plates_c3d_file), setup.plates));
     return std::make_unique<ExternalLoads>(plates->loads, m, plates->grf);
   }
   if (setup.external_loads_file.empty()) return nullptr;
-  if (!fs::exists(setup.external_loads_file))
+  if (!pathExists(setup.external_loads_file))
     throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
   auto loads = std::make_unique<ExternalLoads>(readExternalLoads(setup.external_loads_file), m);
   if (!loads->getSpec().kinematics_file.empty())
@@ -260,7 +261,7 @@ IdReport runInverseDynamicsTool(const IdSetup& setup, const IdRunOptions& option
   if (!setup.joints_to_report_body_forces.empty())
     report.warnings.push_back("joints_to_report_body_forces is not written; joint_loads gives the net joint loads");
 
-  if (!options.coordinates && !fs::exists(setup.coordinates_file))
+  if (!options.coordinates && !pathExists(setup.coordinates_file))
     throw InputError(setup.locate("coordinates_file"), "coordinates file not found: " + setup.coordinates_file);
   const io::Storage coords = options.coordinates ? *options.coordinates : io::readStorage(setup.coordinates_file);
   CoordinateSmoothingOptions so;

@@ -13,6 +13,7 @@
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
 #include "core/json.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "gap/prediction.hpp"
 #include "identify/report_json.hpp"
@@ -701,7 +702,7 @@ std::string rankingScript(const GapReport& r, const TargetDiagnosis& d) {
 }  // namespace
 
 std::vector<std::string> writeGapReport(const std::string& directory, const GapReport& r, const ReportOptions& o) {
-  fs::create_directories(directory);
+  createFolder(directory);
   std::vector<std::string> written, plots;
   const bool have_gnuplot =
       o.plots && std::system(("'" + o.gnuplot + "' --version > /dev/null 2>&1").c_str()) == 0;
@@ -719,7 +720,7 @@ std::vector<std::string> writeGapReport(const std::string& directory, const GapR
       writeFileAtomically(directory + "/" + name + ".gp", [&](std::ostream& f) { f << text; });
       written.push_back(name + ".gp");
       if (!have_gnuplot) continue;
-      if (runGnuplot(o, directory, name + ".gp") && fs::exists(directory + "/" + name + ".png.tmp")) {
+      if (runGnuplot(o, directory, name + ".gp") && pathExists(directory + "/" + name + ".png.tmp")) {
         fs::rename(directory + "/" + name + ".png.tmp", directory + "/" + name + ".png");
         written.push_back(name + ".png");
         plots.push_back(name + ".png");

@@ -4,6 +4,7 @@
 #include <limits>
 #include <set>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "io/storage.hpp"
 #include "core/xml.hpp"
@@ -252,7 +253,7 @@ PredictRunResult runPredict(const GapSetup& s, const std::string& model_path,
   res.predictions = predictTrials(res.model, registry, trials, model_path);
   res.directory = s.results_directory;
   say("writing the predictions into " + res.directory);
-  fs::create_directories(res.directory);
+  createFolder(res.directory);
   for (const auto& p : res.predictions) {
     io::writeStorage(res.directory + "/" + p.trial + "_predicted.sto", toStorage(p));
     res.files.push_back(p.trial + "_predicted.sto");

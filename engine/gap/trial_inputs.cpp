@@ -6,6 +6,7 @@
 #include <limits>
 #include <set>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "gap/signals.hpp"
 #include "io/c3d.hpp"
@@ -224,7 +225,7 @@ TrialFiles readTrialFiles(const TrialSource& src, GapTrial& g) {
   if (src.contact_area.empty())
     throw InputError(where, who + ": expected a contact-area .sto (the contact-area tool's output), got none");
   auto requireFile = [&](const std::string& path, const char* element, const char* what) {
-    if (!path.empty() && !std::filesystem::exists(path))
+    if (!path.empty() && !pathExists(path))
       throw InputError({where.file, where.line, where.element + "/" + element},
                        who + ": " + what + " not found: " + path);
   };

@@ -10,6 +10,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "io/storage.hpp"
@@ -513,14 +514,14 @@ std::string formatMarkerTable(const MarkerPlacerResult& result) {
 }  // namespace
 
 MarkerPlacerResult runMarkerPlacer(const MarkerPlacerSetup& setup) {
-  if (!fs::exists(setup.model_file))
+  if (!pathExists(setup.model_file))
     throw InputError({setup.setup_file, 0, "model_file"}, "model file not found: " + setup.model_file);
   model::ModelPtr model = model::readOsim(setup.model_file);
   const model::Model& m = *model;
 
   std::vector<io::MarkerTable> tables;
   for (const PlacerTrialSpec& t : setup.trials) {
-    if (!fs::exists(t.marker_file)) throw InputError(t.where, "marker file not found: " + t.marker_file);
+    if (!pathExists(t.marker_file)) throw InputError(t.where, "marker file not found: " + t.marker_file);
     tables.push_back(io::readMarkerFile(t.marker_file));
   }
   const PlacerPlan plan = planPlacement(setup, m, tables);

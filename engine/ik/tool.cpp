@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "io/marker_table.hpp"
@@ -170,7 +171,7 @@ IkSetup readIkSetup(const std::string& path) {
 namespace {
 
 model::ModelPtr loadModel(const IkSetup& setup) {
-  if (!fs::exists(setup.model_file))
+  if (!pathExists(setup.model_file))
     throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
   return model::readModel(setup.model_file);
 }
@@ -366,7 +367,7 @@ CoordinateFile readCoordinateFile(const IkSetup& setup, const model::Model& m, c
   if (!need_file) return file;
   if (setup.coordinate_file.empty())
     throw InputError(setup.locate("coordinate_file"), "a coordinate task uses from_file but no coordinate_file is given");
-  if (!fs::exists(setup.coordinate_file))
+  if (!pathExists(setup.coordinate_file))
     throw InputError(setup.locate("coordinate_file"), "coordinate file not found: " + setup.coordinate_file);
   file.storage = io::readStorage(setup.coordinate_file);
   if (file.storage.getNumRows() == 0)
@@ -576,7 +577,7 @@ void stageReports(const IkSetup& setup, const IkReport& report, const TrackingPl
 
 IkReport runIk(const IkSetup& setup, const IkRunOptions& options) {
   model::ModelPtr model = loadModel(setup);
-  if (!fs::exists(setup.marker_file))
+  if (!pathExists(setup.marker_file))
     throw InputError(setup.locate("marker_file"), "marker file not found: " + setup.marker_file);
   return runIk(setup, std::move(model), io::readMarkerFile(setup.marker_file), options);
 }

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <set>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "dynamics/coordinate_smoothing.hpp"
@@ -91,11 +92,11 @@ void readJointReaction(const xml::Node& jr, const std::string& dir, AnalyzeSetup
 double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
 
 model::ModelPtr loadAnalyzeModel(const AnalyzeSetup& setup) {
-  if (!fs::exists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
+  if (!pathExists(setup.model_file)) throw InputError(setup.locate("model_file"), "model file not found: " + setup.model_file);
   model::ModelPtr model = model::readOsim(setup.model_file);
   bool replace = setup.replace_force_set;
   for (const std::string& f : setup.force_set_files) {
-    if (!fs::exists(f)) throw InputError(setup.locate("force_set_files"), "actuator set file not found: " + f);
+    if (!pathExists(f)) throw InputError(setup.locate("force_set_files"), "actuator set file not found: " + f);
     model = model::readOsimActuatorSet(f, model, replace);
     replace = false;
   }
@@ -136,7 +137,7 @@ AnalyzeSetup readAnalyzeSetup(const std::string& path) {
       "maximum_integrator_step_size", "minimum_integrator_step_size", "integrator_error_tolerance", "AnalysisSet",
       "ControllerSet", "external_loads_file", "states_file", "coordinates_file", "speeds_file",
       "lowpass_cutoff_frequency_for_coordinates"};
-  if (!fs::exists(path)) throw InputError({path, 0, ""}, "setup file not found");
+  if (!pathExists(path)) throw InputError({path, 0, ""}, "setup file not found");
   auto doc = xml::Document::load(path);
   const xml::Node tool = xml::requireSetupElement(*doc, "AnalyzeTool");
   xml::checkChildren(tool, elements);
@@ -192,7 +193,7 @@ class AnalyzeMotion {
       : n_(int(model.coordinates.size())) {
     const bool use_states = setup.coordinates_file.empty();
     const std::string file = use_states ? setup.states_file : setup.coordinates_file;
-    if (!fs::exists(file))
+    if (!pathExists(file))
       throw InputError(setup.locate(use_states ? "states_file" : "coordinates_file"), "file not found: " + file);
     if (!use_states) {
       const io::Storage coords = io::readStorage(file);
@@ -358,7 +359,7 @@ void runJointReaction(const AnalyzeSetup& setup, const std::shared_ptr<const dyn
   const int n = int(model.coordinates.size());
   const std::vector<ReactionRequest> requests =
       resolveReactions(model, setup.jr_joints, setup.jr_on_bodies, setup.jr_frames, setup.locate("JointReaction/joint_names"));
-  if (!setup.jr_forces_file.empty() && !fs::exists(setup.jr_forces_file))
+  if (!setup.jr_forces_file.empty() && !pathExists(setup.jr_forces_file))
     throw InputError(setup.locate("JointReaction/forces_file"), "forces file not found: " + setup.jr_forces_file);
   const ActuatorForces forces(model, setup.jr_forces_file, report.warnings);
   const double t0 = std::max(setup.initial_time, setup.jr_start), t1 = std::min(setup.final_time, setup.jr_end);
@@ -407,7 +408,7 @@ AnalyzeReport runAnalyzeTool(const AnalyzeSetup& setup) {
   const AnalyzeMotion motion(setup, *model, report.warnings);
   std::unique_ptr<dynamics::ExternalLoads> loads;
   if (!setup.external_loads_file.empty()) {
-    if (!fs::exists(setup.external_loads_file))
+    if (!pathExists(setup.external_loads_file))
       throw InputError(setup.locate("external_loads_file"), "ExternalLoads file not found: " + setup.external_loads_file);
     loads = std::make_unique<dynamics::ExternalLoads>(dynamics::readExternalLoads(setup.external_loads_file), *model);
   }

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/error.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 
 namespace kneesim::plugin {
@@ -61,12 +62,12 @@ void Registry::loadPlugin(const std::string& name_or_path, const SourceLocation&
   std::string path;
   const bool is_path = name_or_path.find('/') != std::string::npos || endsWith(name_or_path, ".so");
   if (is_path) {
-    if (fs::exists(name_or_path)) path = fs::absolute(name_or_path).lexically_normal().string();
+    if (pathExists(name_or_path)) path = fs::absolute(name_or_path).lexically_normal().string();
   } else {
     for (const auto& d : search_dirs_) {
       for (const std::string& f : {"libkneesim_" + name_or_path + ".so", "lib" + name_or_path + ".so"}) {
         const fs::path p = fs::path(d) / f;
-        if (fs::exists(p)) {
+        if (pathExists(p)) {
           path = fs::absolute(p).lexically_normal().string();
           break;
         }

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "core/atomic_file.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "tool/batch_setups.hpp"
 
@@ -180,7 +181,7 @@ std::vector<BatchTrialPlan> planBatch(const Manifest& manifest, const std::strin
 }
 
 void writeTrialSetups(const BatchTrialPlan& plan) {
-  fs::create_directories(plan.folder);
+  createFolder(plan.folder);
   for (const auto& [path, text] : plan.setup_files) {
     std::error_code ec;
     if (fs::is_regular_file(path, ec) && readFileText(path) == text) continue;

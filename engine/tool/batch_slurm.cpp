@@ -6,6 +6,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/error.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 
 namespace kneesim::tool {
@@ -41,7 +42,7 @@ SlurmJobFiles writeSlurmJob(const std::string& dir, const std::vector<const Batc
   for (const std::string* v : {&o.job_name, &o.partition, &o.account, &o.time, &o.mem, &o.kneesim}) checkOption(*v, "slurm option");
   for (const std::string& e : o.extra) checkOption(e, "slurm option");
   const fs::path d = fs::absolute(fs::path(dir)).lexically_normal();
-  fs::create_directories(d / "logs");
+  createFolder(d / "logs");
   SlurmJobFiles f;
   f.tasks = int(trials.size());
   f.trial_list = (d / "kneesim_trials.txt").string();

@@ -13,6 +13,7 @@
 #include "contact/cylinder_fit.hpp"
 #include "contact/seating.hpp"
 #include "core/atomic_file.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/xml.hpp"
 #include "io/knee_forces.hpp"
@@ -142,7 +143,7 @@ void readFlexion(const ContactAreaSetup& setup, std::vector<double>& time, std::
     description = "hinge (Dao & Pouletaut 2015): flexion list from the setup, " + std::to_string(flexion.size()) +
                   " frames, time step " + formatSeconds(h.time_step) + " s";
   } else if (h.source == HingeKinematicsSpec::Source::file_column) {
-    if (!fs::exists(h.file)) throw InputError(at, "flexion file not found: " + h.file);
+    if (!pathExists(h.file)) throw InputError(at, "flexion file not found: " + h.file);
     const io::Storage st = io::readStorage(h.file);
     const int col = st.findColumn(h.column);
     if (col < 0) {
@@ -158,7 +159,7 @@ void readFlexion(const ContactAreaSetup& setup, std::vector<double>& time, std::
     description = "hinge (Dao & Pouletaut 2015): flexion from column " + h.column + " of " + h.file + " (" +
                   (st.in_degrees ? "degrees" : "radians") + ")";
   } else {
-    if (!fs::exists(h.file)) throw InputError(at, "knee-force file not found: " + h.file);
+    if (!pathExists(h.file)) throw InputError(at, "knee-force file not found: " + h.file);
     const io::KneeForces kf = io::readKneeForces(h.file);
     bool any = false;
     double lo = HUGE_VAL, hi = -HUGE_VAL;
@@ -238,8 +239,8 @@ ContactKinematics calcModelKinematicsFromFiles(const ContactAreaSetup& setup,
                                                const std::function<void(const std::string&, int, int)>& progress) {
   const ModelKinematicsSpec& ms = setup.model;
   const SourceLocation at{ms.where.file, ms.where.line, ms.where.element};
-  if (!fs::exists(ms.model_file)) throw InputError(at, "model file not found: " + ms.model_file);
-  if (!fs::exists(ms.motion_file)) throw InputError(at, "motion file not found: " + ms.motion_file);
+  if (!pathExists(ms.model_file)) throw InputError(at, "model file not found: " + ms.model_file);
+  if (!pathExists(ms.motion_file)) throw InputError(at, "motion file not found: " + ms.motion_file);
   const model::ModelPtr m = endsWith(toLower(ms.model_file), ".urdf") ? model::readUrdf(ms.model_file)
                                                                       : model::readOsim(ms.model_file);
   return calcModelKinematics(setup, m, io::readStorage(ms.motion_file), ms.motion_file, progress);
@@ -441,7 +442,7 @@ ImplantMeshes readImplantMeshes(const ContactAreaSetup& setup) {
   o.min_extent = 0.01;  // a knee implant component is 1..50 cm across
   o.max_extent = 0.5;
   for (const std::string* f : {&setup.femur_file, &setup.insert_file})
-    if (!fs::exists(*f)) throw InputError({setup.setup_file, 0, "ContactAreaTool"}, "STL file not found: " + *f);
+    if (!pathExists(*f)) throw InputError({setup.setup_file, 0, "ContactAreaTool"}, "STL file not found: " + *f);
   ImplantMeshes m;
   m.femur = io::readStl(setup.femur_file, o);
   m.insert = io::readStl(setup.insert_file, o);

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <tuple>
 
+#include "core/paths.hpp"
 #include "model/osim_reader.hpp"
 #include "model/urdf.hpp"
 #include "tool/workflow_detail.hpp"
@@ -37,7 +38,7 @@ void readContactInputs(const WorkflowSetup& setup, WorkflowInputs& in) {
 
 // The model and whether its flexion coordinate is rotational.
 void readModel(const WorkflowSetup& setup, WorkflowInputs& in) {
-  if (!fs::exists(setup.model_file)) throw InputError({setup.setup_file, 0, "model_file"}, "model file not found: " + setup.model_file);
+  if (!pathExists(setup.model_file)) throw InputError({setup.setup_file, 0, "model_file"}, "model file not found: " + setup.model_file);
   in.model = endsWith(toLower(setup.model_file), ".urdf") ? model::readUrdf(setup.model_file)
                                                           : model::readOsim(setup.model_file);
   const int flex_coord = in.model->findCoordinate(setup.flexion_coordinate);
@@ -125,7 +126,7 @@ WorkflowReport runWorkflow(const WorkflowSetup& setup, const RunOptions& options
   // ---- the gap diagnoses on the contact-area files just written (their own outputs, in gap/)
   t0 = Clock::now();
   for (const std::string& file : setup.gap_setup_files) {
-    if (!fs::exists(file)) throw InputError({setup.setup_file, 0, "gap_setup_file"}, "gap setup file not found: " + file);
+    if (!pathExists(file)) throw InputError({setup.setup_file, 0, "gap_setup_file"}, "gap setup file not found: " + file);
     gap::GapSetup gs = gap::readGapSetup(file);
     // The areas and the knee's net loads (knee_load effect) this run just wrote.
     gap::setWorkflowResults(gs, setup.results_directory);

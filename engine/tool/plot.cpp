@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 
 #include "core/error.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 
 namespace kneesim::tool {
@@ -162,7 +163,7 @@ void renderPlots(const std::vector<Plot>& plots, const Gnuplot& gnuplot, AtomicF
   static std::atomic<int> counter{0};
   const fs::path tmp = fs::temp_directory_path() /
                        ("kneesim_plot_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-  fs::create_directories(tmp);
+  createFolder(tmp);
   struct Cleanup {
     fs::path p;
     ~Cleanup() {

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/json.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "dynamics/tool.hpp"
 #include "gap/signals.hpp"
@@ -34,7 +35,7 @@ TrialKneeLoads runTrialKneeLoads(const std::string& id_setup_file, const io::Sto
                                  const std::string& motion_file, const std::string& trial,
                                  const std::string& trial_dir, const SourceLocation& where, AtomicFileSet& stage,
                                  std::vector<std::string>& notes) {
-  if (!fs::exists(id_setup_file)) throw InputError(where, "inverse dynamics setup file not found: " + id_setup_file);
+  if (!pathExists(id_setup_file)) throw InputError(where, "inverse dynamics setup file not found: " + id_setup_file);
   const auto t0 = std::chrono::steady_clock::now();
   dynamics::IdSetup id = dynamics::readIdSetup(id_setup_file);
   if (id.knee_joint.empty())

@@ -9,6 +9,7 @@
 #include <algorithm>
 
 #include "core/json.hpp"
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "dynamics/c3d_loads.hpp"
 #include "dynamics/coordinate_smoothing.hpp"
@@ -34,12 +35,12 @@ double cpuSeconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
 // The ID setup's ground reactions bound to @p model (null when it has none).
 std::unique_ptr<dynamics::ExternalLoads> loadGroundReactions(const dynamics::IdSetup& id, const model::Model& model) {
   if (!id.plates_c3d_file.empty()) {
-    if (!fs::exists(id.plates_c3d_file)) throw InputError(id.locate("ForcePlates"), "C3D file not found: " + id.plates_c3d_file);
+    if (!pathExists(id.plates_c3d_file)) throw InputError(id.locate("ForcePlates"), "C3D file not found: " + id.plates_c3d_file);
     const dynamics::GroundReactions g = dynamics::calcGroundReactions(io::readC3d(id.plates_c3d_file), id.plates);
     return std::make_unique<dynamics::ExternalLoads>(g.loads, model, g.grf);
   }
   if (id.external_loads_file.empty()) return nullptr;
-  if (!fs::exists(id.external_loads_file))
+  if (!pathExists(id.external_loads_file))
     throw InputError(id.locate("external_loads_file"), "ExternalLoads file not found: " + id.external_loads_file);
   return std::make_unique<dynamics::ExternalLoads>(dynamics::readExternalLoads(id.external_loads_file), model);
 }
@@ -92,7 +93,7 @@ MuscleChainSetup readMuscleChainSetup(const xml::Node& n, const std::string& dir
 }
 
 MuscleChainModel buildMuscleChainModel(const MuscleChainSetup& s, const model::ModelPtr& target) {
-  if (!fs::exists(s.muscle_model_file))
+  if (!pathExists(s.muscle_model_file))
     throw InputError(s.where, "MuscleChain/muscle_model_file: expected an existing model file, got " + s.muscle_model_file);
   const model::ModelPtr donor = model::readOsim(s.muscle_model_file);
   std::vector<muscle::BodyCorrespondence> map;
@@ -102,7 +103,7 @@ MuscleChainModel buildMuscleChainModel(const MuscleChainSetup& s, const model::M
   MuscleChainModel out;
   out.model = a.model;
   for (const std::string& f : s.force_set_files) {
-    if (!fs::exists(f)) throw InputError(s.where, "MuscleChain/force_set_files: expected an existing actuator set file, got " + f);
+    if (!pathExists(f)) throw InputError(s.where, "MuscleChain/force_set_files: expected an existing actuator set file, got " + f);
     out.model = model::readOsimActuatorSet(f, out.model, false);
   }
   out.adopted = std::move(a.adopted);
@@ -121,7 +122,7 @@ TrialMuscleLoads runTrialMuscleChain(const MuscleChainSetup& setup, const Muscle
                                      const std::string& id_setup_file, const io::Storage& motion,
                                      const std::string& motion_file, const SourceLocation& where) {
   const auto wall0 = std::chrono::steady_clock::now();
-  if (!fs::exists(id_setup_file)) throw InputError(where, "inverse dynamics setup file not found: " + id_setup_file);
+  if (!pathExists(id_setup_file)) throw InputError(where, "inverse dynamics setup file not found: " + id_setup_file);
   const dynamics::IdSetup id = dynamics::readIdSetup(id_setup_file);
   const model::Model& m = *chain.model;
   TrialMuscleLoads out;

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "contact/contact_output.hpp"
+#include "core/paths.hpp"
 #include "ik/tool.hpp"
 #include "io/c3d.hpp"
 #include "tool/workflow_detail.hpp"
@@ -95,7 +96,7 @@ void readKinematicsSource(const WorkflowSetup& setup, const WorkflowInputs& in, 
   WorkflowTrialResult& r = st.result;
   const std::string who = "trial '" + spec.name + "': ";
   if (spec.source == WorkflowTrialSpec::Source::ik) {
-    if (!fs::exists(spec.ik_setup_file)) throw InputError(spec.where, who + "IK setup file not found: " + spec.ik_setup_file);
+    if (!pathExists(spec.ik_setup_file)) throw InputError(spec.where, who + "IK setup file not found: " + spec.ik_setup_file);
     ik::IkSetup ik = ik::readIkSetup(spec.ik_setup_file);
     ik.output_motion_file = (fs::path(trialDirectory(setup, spec.name)) / (spec.name + "_ik.mot")).string();
     ik.results_directory = trialDirectory(setup, spec.name);
@@ -114,7 +115,7 @@ void readKinematicsSource(const WorkflowSetup& setup, const WorkflowInputs& in, 
     r.notes.push_back("IK of " + ik.marker_file + ": " + std::to_string(rep.frames_solved) + " frames, mean marker RMS " +
                       fmt(rep.mean_rms * 1e3, 3) + " mm");
   } else if (spec.source == WorkflowTrialSpec::Source::motion) {
-    if (!fs::exists(spec.motion_file)) throw InputError(spec.where, who + "motion file not found: " + spec.motion_file);
+    if (!pathExists(spec.motion_file)) throw InputError(spec.where, who + "motion file not found: " + spec.motion_file);
     st.motion = io::readStorage(spec.motion_file);
     st.motion_label = spec.motion_file;
   } else {
@@ -128,7 +129,7 @@ void readGaitEvents(const WorkflowTrialSpec& spec, const std::string& c3d_file, 
   const std::string who = "trial '" + spec.name + "': ";
   io::C3dFile c3d;
   if (!c3d_file.empty()) {
-    if (!fs::exists(c3d_file)) throw InputError(spec.where, who + "C3D file not found: " + c3d_file);
+    if (!pathExists(c3d_file)) throw InputError(spec.where, who + "C3D file not found: " + c3d_file);
     c3d = io::readC3d(c3d_file);
     forces = io::retimeToFrames(forces, c3d.first_frame, c3d.markers.rate);
     io::FootContactOptions fo;
@@ -224,7 +225,7 @@ void processTrial(const WorkflowSetup& setup, WorkflowInputs& in, std::vector<Tr
   const std::string who = "trial '" + spec.name + "': ";
 
   // ---- forces (needed first by the goniometer source)
-  if (!fs::exists(spec.knee_forces_file)) throw InputError(spec.where, who + "knee-force file not found: " + spec.knee_forces_file);
+  if (!pathExists(spec.knee_forces_file)) throw InputError(spec.where, who + "knee-force file not found: " + spec.knee_forces_file);
   io::KneeForces forces = io::readKneeForces(spec.knee_forces_file);
   std::string c3d_file = spec.c3d_file;
 

@@ -158,6 +158,12 @@ TEST(InverseDynamicsTool, BadInputIsOneLine) {
     replaceInFile(dir + "/subject01_Setup_InverseDynamics.xml", "<forces_to_exclude>", "<force_to_exclude/><forces_to_exclude>");
     EXPECT_NE(errorOfCase(dir).find("force_to_exclude"), std::string::npos);
   }
+  {  // A model file name longer than the system allows: not found (std::filesystem threw
+     // filesystem_error here, an "internal error" at the command line, until 2026-11-28).
+    const std::string dir = copyCase("id_long_name");
+    replaceInFile(dir + "/subject01_Setup_InverseDynamics.xml", "subject01.osim", std::string(300, 'm') + ".osim");
+    EXPECT_NE(errorOfCase(dir).find("model_file: model file not found: "), std::string::npos);
+  }
 }
 
 // <KneeLoads> and <ForcePlates> of a setup: each bad input is one line naming the element.
