@@ -24,7 +24,11 @@ namespace {
 const fs::path& inputDir() {
   static const fs::path dir = [] {
     const fs::path base = ::access("/dev/shm", W_OK) == 0 ? fs::path("/dev/shm") : fs::temp_directory_path();
-    fs::path d = base / ("kneesim-fuzz-" + std::to_string(::getpid()));
+    // The pid padded to a fixed width: every path then has the same length, so the string code
+    // an input runs through (and the coverage libFuzzer steers by) does not change with the pid.
+    char pid[16];
+    std::snprintf(pid, sizeof pid, "%010d", int(::getpid()));
+    fs::path d = base / (std::string("kneesim-fuzz-") + pid);
     fs::create_directories(d);
     std::atexit([] {
       std::error_code ec;

@@ -11,10 +11,13 @@
 #                      corpus (corpus/<target>, grown run after run), findings (findings/<target>/),
 #                      logs (logs/<target>.log) and summary.tsv (a row per target and run)
 #     --runs N         stop a target after N executions (or SECONDS, whichever comes first)
+#     --seed N         libFuzzer's random seed (default: a new one per run); with --runs, a run
+#                      repeats itself on the same code: the same inputs in the same order
 #     --no-build       run the targets as built
 #     --build-only     configure and build, run nothing
 #     --check          the test suite's mode: each target starts from its seeds (its corpus and
-#                      findings in --out are emptied first)
+#                      findings in --out are emptied first) and one input may take 60 s (not 10:
+#                      a loaded machine is no finding)
 #     --list           print the targets and exit
 # A finding stops its target (libFuzzer's behaviour); the input is in findings/<target>/ and the log
 # holds the report. The exit status is 1 when a target found something or a reproducer failed.
@@ -24,6 +27,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build-fuzz"
 out="${KNEESIM_FUZZ_OUT:-${HOME:-/tmp}/.cache/kneesim-fuzz}"
 runs=""
+seed=""
 do_build=1
 run=1
 check=0
@@ -33,11 +37,12 @@ while [ $# -gt 0 ]; do
     --build-dir) build="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
+    --seed) seed="$2"; shift 2 ;;
     --no-build) do_build=0; shift ;;
     --build-only) run=0; shift ;;
     --check) check=1; shift ;;
     --list) list=1; shift ;;
-    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     --*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
     *) break ;;
   esac
@@ -51,6 +56,9 @@ if [ "$run" = 1 ]; then
   case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 fi
 targets="${*:-$all_targets}"
+for n in "$runs" "$seed"; do
+  case "$n" in *[!0-9]*) echo "fuzz.sh: --runs and --seed take a whole number, got '$n'" >&2; exit 2 ;; esac
+done
 for t in $targets; do
   echo "$all_targets" | grep -qx "$t" || { echo "fuzz.sh: unknown target '$t' (tools/fuzz.sh --list)" >&2; exit 2; }
 done
@@ -94,9 +102,19 @@ for t in $targets; do
   [ -f "$root/fuzz/dict/$t.dict" ] && dict="-dict=$root/fuzz/dict/$t.dict"
   limit=""
   [ -n "$runs" ] && limit="-runs=$runs"
+  [ -n "$seed" ] && limit="$limit -seed=$seed"
+  timeout=10
+  # The suite's mode repeats itself: no timed re-reading of the corpus folder (-reload) and, when
+  # setarch can, no address randomisation (compares of pointers steer libFuzzer's mutations).
+  norand=""
+  if [ "$check" = 1 ]; then
+    timeout=60
+    limit="$limit -reload=0"
+    setarch "$(uname -m)" -R true 2>/dev/null && norand="setarch $(uname -m) -R"
+  fi
   set +e
   # shellcheck disable=SC2086
-  "$bin" -max_total_time="$seconds" $limit $dict -print_final_stats=1 -timeout=10 -rss_limit_mb=2048 \
+  $norand "$bin" -max_total_time="$seconds" $limit $dict -print_final_stats=1 -timeout=$timeout -rss_limit_mb=2048 \
     -malloc_limit_mb=1024 -max_len=65536 -artifact_prefix="$findings/" "$corpus" "$root/fuzz/corpus/$t" >>"$log" 2>&1
   rc=$?
   set -e
