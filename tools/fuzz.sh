@@ -16,8 +16,9 @@
 #     --no-build       run the targets as built
 #     --build-only     configure and build, run nothing
 #     --check          the test suite's mode: each target starts from its seeds (its corpus and
-#                      findings in --out are emptied first) and one input may take 60 s (not 10:
-#                      a loaded machine is no finding)
+#                      findings in --out are emptied first), one input may take 60 s (not 10: a
+#                      loaded machine is no finding), and with --seed and --runs a run repeats
+#                      itself (no timed corpus re-reading, no address randomisation when allowed)
 #     --list           print the targets and exit
 # A finding stops its target (libFuzzer's behaviour); the input is in findings/<target>/ and the log
 # holds the report. The exit status is 1 when a target found something or a reproducer failed.
@@ -42,7 +43,7 @@ while [ $# -gt 0 ]; do
     --build-only) run=0; shift ;;
     --check) check=1; shift ;;
     --list) list=1; shift ;;
-    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^set -eu/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
     --*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
     *) break ;;
   esac
@@ -74,6 +75,20 @@ if [ "$do_build" = 1 ]; then
 fi
 [ "$run" = 1 ] || exit 0
 
+# libFuzzer's options for every target. The suite's mode repeats itself: no timed re-reading of the
+# corpus folder (-reload) and, when setarch can, no address randomisation (compares of pointers
+# steer libFuzzer's mutations).
+options=""
+[ -n "$runs" ] && options="$options -runs=$runs"
+[ -n "$seed" ] && options="$options -seed=$seed"
+norand=""
+if [ "$check" = 1 ]; then
+  options="$options -timeout=60 -reload=0"
+  if setarch "$(uname -m)" -R true 2>/dev/null; then norand="setarch $(uname -m) -R"; fi
+else
+  options="$options -timeout=10"
+fi
+
 mkdir -p "$out/logs"
 [ -f "$out/summary.tsv" ] || printf 'date\ttarget\tseconds\texecutions\texec_per_s\tedges\tfeatures\tcorpus\tfindings\n' >"$out/summary.tsv"
 printf '%-20s %12s %8s %7s %7s %9s  %s\n' target executions exec/s edges corpus findings log
@@ -100,21 +115,9 @@ for t in $targets; do
   fi
   dict=""
   [ -f "$root/fuzz/dict/$t.dict" ] && dict="-dict=$root/fuzz/dict/$t.dict"
-  limit=""
-  [ -n "$runs" ] && limit="-runs=$runs"
-  [ -n "$seed" ] && limit="$limit -seed=$seed"
-  timeout=10
-  # The suite's mode repeats itself: no timed re-reading of the corpus folder (-reload) and, when
-  # setarch can, no address randomisation (compares of pointers steer libFuzzer's mutations).
-  norand=""
-  if [ "$check" = 1 ]; then
-    timeout=60
-    limit="$limit -reload=0"
-    setarch "$(uname -m)" -R true 2>/dev/null && norand="setarch $(uname -m) -R"
-  fi
   set +e
   # shellcheck disable=SC2086
-  $norand "$bin" -max_total_time="$seconds" $limit $dict -print_final_stats=1 -timeout=$timeout -rss_limit_mb=2048 \
+  $norand "$bin" -max_total_time="$seconds" $options $dict -print_final_stats=1 -rss_limit_mb=2048 \
     -malloc_limit_mb=1024 -max_len=65536 -artifact_prefix="$findings/" "$corpus" "$root/fuzz/corpus/$t" >>"$log" 2>&1
   rc=$?
   set -e

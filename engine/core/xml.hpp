@@ -2,6 +2,7 @@
 // A thin read-only layer over tinyxml2 that turns every parse problem into a one-line
 // InputError naming the file, the line and the element path.
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -49,9 +50,10 @@ class Node {
   double toDouble() const;
   /// Text as integer.
   long toInt() const;
-  /// Text as an integer from @p lo to @p hi; throws "expected an integer from lo to hi, got '...'"
-  /// otherwise (a setting narrowed to int is checked here, not wrapped beyond 2^31).
-  int toIntIn(int lo, int hi) const;
+  /// Text as an integer from @p lo to @p hi (by default the largest int); throws "expected an
+  /// integer from lo to hi, got '...'" otherwise (a setting narrowed to int is checked here, not
+  /// wrapped beyond 2^31).
+  int toIntIn(int lo, int hi = std::numeric_limits<int>::max()) const;
   /// Text as "true"/"false".
   bool toBool() const;
   /// Text as whitespace-separated numbers.

@@ -1,7 +1,6 @@
 #include "gap/tool.hpp"
 
 #include <filesystem>
-#include <limits>
 #include <set>
 
 #include "core/paths.hpp"
@@ -132,7 +131,7 @@ GapSetup readGapSetup(const std::string& path) {
   auto integer = [&](const char* tag, int fallback, int lo) {
     xml::Node n = tool.child(tag);
     if (!n || n.text().empty()) return fallback;
-    return n.toIntIn(lo, std::numeric_limits<int>::max());
+    return n.toIntIn(lo);
   };
   auto fraction = [&](const char* tag, double fallback) {
     xml::Node n = tool.child(tag);

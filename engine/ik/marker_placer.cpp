@@ -339,7 +339,7 @@ MarkerPlacerSetup readMarkerPlacerSetup(const std::string& path) {
       t.time_end = v[1];
     }
     if (xml::Node st = n.child("frame_stride")) {
-      t.frame_stride = st.toIntIn(1, std::numeric_limits<int>::max());
+      t.frame_stride = st.toIntIn(1);
     }
     t.weight = n.childDouble("weight", 1.0);
     if (!(t.weight > 0) || !std::isfinite(t.weight)) n.child("weight").fail("expected a weight > 0");

@@ -73,8 +73,7 @@ void readTaskSet(const xml::Node& set, std::vector<TaskSpec>& out) {
 std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string& setup_dir) {
   if (auto file = set.attr("file"); file && !trim(*file).empty() && *file != "Unassigned") {
     const std::string task_path = xml::resolvePath(setup_dir, std::string(trim(*file)));
-    std::error_code ec;  // a name too long for the system is not found either (not a filesystem_error)
-    if (!fs::exists(task_path, ec)) set.fail("IKTaskSet file not found: " + task_path);
+    if (!pathExists(task_path)) set.fail("IKTaskSet file not found: " + task_path);
     return readTaskFile(task_path);
   }
   std::vector<TaskSpec> tasks;
@@ -83,8 +82,7 @@ std::vector<TaskSpec> readTaskSetElement(const xml::Node& set, const std::string
 }
 
 std::vector<TaskSpec> readTaskFile(const std::string& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
+  if (!pathExists(path)) throw InputError({path, 0, ""}, "IKTaskSet file not found");
   auto doc = xml::Document::load(path);
   xml::Node root = doc->root();
   xml::Node set = root.name() == "IKTaskSet" ? root : root.child("IKTaskSet");
@@ -95,8 +93,7 @@ std::vector<TaskSpec> readTaskFile(const std::string& path) {
 }
 
 IkSetup readIkSetup(const std::string& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError({path, 0, ""}, "setup file not found");
+  if (!pathExists(path)) throw InputError({path, 0, ""}, "setup file not found");
   auto doc = xml::Document::load(path);
   IkSetup s;
   s.setup_file = path;
@@ -151,7 +148,7 @@ IkSetup readIkSetup(const std::string& path) {
   // converged when the remaining Gauss-Newton step is below it (rad or m, or m of marker motion).
   s.solver.step_tolerance = s.accuracy;
   if (xml::Node mi = tool.child("max_iterations")) {
-    s.solver.max_iterations = mi.toIntIn(1, std::numeric_limits<int>::max());
+    s.solver.max_iterations = mi.toIntIn(1);
   }
   if (xml::Node tr = tool.child("time_range"); tr && !tr.text().empty()) {
     const auto v = tr.toDoubles();

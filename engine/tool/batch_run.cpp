@@ -7,6 +7,7 @@
 #include <mutex>
 #include <thread>
 
+#include "core/paths.hpp"
 #include "core/strings.hpp"
 #include "core/subprocess.hpp"
 #include "tool/batch_completion.hpp"
@@ -61,7 +62,7 @@ TrialOutcome readTrialOutcome(const BatchTrialPlan& plan) {
   } else if (std::string note = readFailureNote(plan); !note.empty()) {
     o.status = TrialOutcome::Status::failed;
     o.message = note;
-  } else if (std::error_code ec; fs::exists(plan.completion_file, ec)) {
+  } else if (pathExists(plan.completion_file)) {
     o.message = "not finished: " + why;  // a marker that no longer holds
   }
   return o;

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
-#include <limits>
 #include <sstream>
 
 #include "contact/contact_output.hpp"
@@ -420,7 +419,7 @@ ContactAreaSetup readContactAreaSetup(const std::string& path) {
   s.output_file = xml::resolvePath(s.results_directory, out);
   s.write_vtp = tool.childBool("write_vtp", false);
   if (xml::Node n = tool.child("vtp_every")) {
-    s.vtp_every = n.toIntIn(1, std::numeric_limits<int>::max());
+    s.vtp_every = n.toIntIn(1);
   }
   s.vtp_femur = tool.childBool("vtp_femur", true);
   if (xml::Node n = tool.child("hinge_file")) s.hinge_file = xml::resolvePath(s.results_directory, n.text());
